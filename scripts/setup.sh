@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Installs what is missing (Debian 12 packages, the project's Python venv), then configures
+# and builds ndsid. Idempotent: a second run installs nothing and rebuilds only what changed.
+#
+#   scripts/setup.sh            install + configure + build (build/)
+#   NDSID_BUILD_DIR=dir         build somewhere else
+#   NDSID_SKIP_INSTALL=1        only configure + build (no apt, no pip)
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$here"
+
+# Debian 12 packages: build tools, libraries, tools the tests drive (can-utils, lcm-*), the
+# Python venv's base. Keep this list the single source of truth (docs/install.md refers to it).
+DEB_PACKAGES=(
+  build-essential cmake ninja-build pkg-config git
+  libceres-dev libeigen3-dev
+  liblcm-dev liblcm-bin liblcm-java libglib2.0-dev default-jre-headless default-jdk-headless
+  libspdlog-dev libyaml-cpp-dev libgtest-dev libgmock-dev libcli11-dev libsystemd-dev
+  libbenchmark-dev nlohmann-json3-dev zlib1g-dev
+  can-utils iproute2 systemd
+  python3 python3-venv python3-pip
+)
+
+log() { printf '[setup] %s\n' "$*" >&2; }
+
+install_debian_packages() {
+  local missing=()
+  for p in "${DEB_PACKAGES[@]}"; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+      missing+=("$p")
+    fi
+  done
+  if ((${#missing[@]} == 0)); then
+    log "Debian packages: all present"
+    return
+  fi
+  log "Debian packages missing: ${missing[*]}"
+  local sudo=""
+  if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+install_python_venv() {
+  local venv="$here/.venv" req="$here/requirements.txt"
+  local stamp="$venv/.requirements.sha256"
+  if [[ ! -x "$venv/bin/python3" ]]; then
+    log "creating Python venv in .venv"
+    /usr/bin/python3 -m venv "$venv"
+  fi
+  local want; want="$(sha256sum "$req" | cut -d' ' -f1)"
+  if [[ ! -f "$stamp" || "$(cat "$stamp")" != "$want" ]]; then
+    log "installing Python packages from requirements.txt"
+    "$venv/bin/pip" install -q --disable-pip-version-check -r "$req"
+    echo "$want" >"$stamp"
+  else
+    log "Python venv: up to date"
+  fi
+}
+
+build() {
+  local dir="${NDSID_BUILD_DIR:-$here/build}"
+  if [[ ! -f "$dir/build.ninja" ]]; then
+    cmake -S "$here" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >&2
+  fi
+  cmake --build "$dir" -j "$(nproc)" >&2
+}
+
+if [[ "${NDSID_SKIP_INSTALL:-0}" != 1 ]]; then
+  install_debian_packages
+  install_python_venv
+fi
+build
