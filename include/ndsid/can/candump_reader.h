@@ -1,0 +1,47 @@
+// Streaming reader for can-utils log files: `candump -l` / `candump -L` lines such as
+//   (1700000000.123456) can0 123#DEADBEEF
+// plain or gzip-compressed (detected by content). Never loads the whole file.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ndsid/can/frame_source.h"
+
+namespace ndsid::can {
+
+// A rejected line: where and why (kept for the first few, all are counted).
+struct MalformedLine {
+  uint64_t line = 0;
+  std::string reason;
+};
+
+class CandumpReader final : public FrameSource {
+ public:
+  // Throws ndsid::Error naming the path when the file cannot be opened.
+  explicit CandumpReader(const std::string& path);
+  ~CandumpReader() override;
+
+  ReadResult Read(std::span<CanFrame> out, int timeout_ms = 0) noexcept override;
+  const SourceCounters& counters() const noexcept override;
+  const std::vector<std::string>& bus_names() const noexcept override;
+  std::string Describe() const override;
+
+  // The first few malformed lines (all of them are counted in counters().malformed).
+  const std::vector<MalformedLine>& first_malformed() const noexcept;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Parses one log line into `frame` (bus left 0) and `bus_name`. Returns an empty string on
+// success, else the reason the line is malformed. Exposed for tests and tools.
+std::string ParseCandumpLine(std::string_view line, CanFrame& frame, std::string_view& bus_name) noexcept;
+
+// Formats a frame as a `candump -l` line (no newline): "(sec.usec) bus ID#DATA".
+std::string FormatCandumpLine(const CanFrame& frame, std::string_view bus_name);
+
+}  // namespace ndsid::can
