@@ -1,0 +1,63 @@
+// Data adequacy, the termination signal (physics.md §3): EG's history against accumulated gated
+// hours. Converged when EG's relative change over the last change window and its relative
+// standard error both stay under the tolerance for a hold period, and coverage growth (KL
+// divergence of the g-g / v-a_y histograms against one window ago) has flattened.
+#pragma once
+
+#include <deque>
+#include <string>
+#include <vector>
+
+#include "ndsid/config/config.h"
+#include "ndsid/stats/coverage.h"
+
+namespace ndsid::adequacy {
+
+enum class State { kCollecting = 0, kConverging = 1, kAdequate = 2 };
+const char* StateName(State s);
+
+struct EgPoint {
+  double gated_hours = 0;
+  double eg = 0;     // rad/(m/s^2)
+  double eg_se = 0;
+  double kl = -1;    // coverage growth at this point, nats (-1: no earlier snapshot yet)
+};
+
+struct Report {
+  State state = State::kCollecting;
+  double gated_hours = 0;
+  double rel_change = -1;      // |EG_now - EG_then| / |EG_now| over change_window_h (-1: not yet)
+  double rel_se = -1;          // se / |EG|
+  double kl_growth = -1;       // nats
+  double hours_under_tolerance = 0;
+  std::string explanation;     // the numbers behind the state, in words
+};
+
+class Tracker {
+ public:
+  explicit Tracker(const config::AdequacyConfig& config);
+
+  // Record a new estimate (valid EG only) at the given accumulated gated hours.
+  Report Update(double gated_hours, double eg, double eg_se, const stats::Coverage& coverage);
+  // Re-derive the report without a new estimate (e.g. after an identification failure).
+  const Report& last() const { return last_; }
+  const std::vector<EgPoint>& history() const { return history_; }
+
+  std::string Serialize() const;
+  void Deserialize(const std::string& text);  // throws ndsid::Error
+
+ private:
+  double EgAt(double hours, bool& found) const;
+
+  config::AdequacyConfig config_;
+  std::vector<EgPoint> history_;
+  struct Snapshot {
+    double hours;
+    stats::Coverage coverage;
+  };
+  std::deque<Snapshot> snapshots_;
+  double under_since_hours_ = -1;
+  Report last_;
+};
+
+}  // namespace ndsid::adequacy

@@ -1,0 +1,161 @@
+// The per-vehicle configuration: one YAML file (see config/example_vehicle.yaml for every key
+// with meaning, unit, default and range). Loaded and validated once at start-up; the stages
+// receive the plain structs below. Units are SI; role signals carry their bus unit and sign so
+// conversion happens at the edge (RoleSignal::ToSi).
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ndsid/common/error.h"
+
+namespace ndsid::config {
+
+// What the estimator needs from the bus. Required: steering-wheel angle, speed, lateral accel.
+enum class Role {
+  kSteeringWheelAngle = 0,  // rad, + left
+  kSpeed,                   // m/s
+  kLateralAcceleration,     // m/s^2, + left (ISO 8855)
+  kYawRate,                 // rad/s, + left (optional)
+  kLongitudinalAcceleration,// m/s^2, + forward (optional)
+  kReverseGear,             // flag (optional)
+  kEscIntervention,         // flag (optional)
+  kCount
+};
+inline constexpr int kNumRoles = static_cast<int>(Role::kCount);
+const char* RoleKey(Role role);  // YAML key, e.g. "steering_wheel_angle"
+bool RoleIsRequired(Role role);
+bool RoleIsFlag(Role role);
+
+struct SignalRef {
+  std::string message;
+  std::string signal;
+};
+
+struct RoleSignal {
+  SignalRef ref;
+  std::string unit;       // unit on the bus: deg|rad, km/h|m/s|mph, m/s^2|g, deg/s|rad/s, "" for flags
+  double scale_to_si = 1; // sign * unit conversion, so value_si = raw_physical * scale_to_si
+  double timeout_s = 0.1; // a value older than this is stale
+  std::vector<double> active_values;  // flags: physical values meaning "active" (default {1})
+  int line = 0;           // YAML line, for messages
+
+  double ToSi(double physical) const { return physical * scale_to_si; }
+  bool IsActive(double physical) const;
+};
+
+// A validity flag: the sample is invalid unless the signal equals one of `valid_values`.
+struct ValiditySignal {
+  SignalRef ref;
+  std::vector<double> valid_values{1.0};
+  double timeout_s = 0.2;
+  int line = 0;
+};
+
+struct SourceConfig {
+  enum class Type { kLog, kSocketCan } type = Type::kLog;
+  std::vector<std::string> logs;  // candump -l files (plain or .gz), resolved against the config dir
+  std::string interface;          // SocketCAN interface, e.g. "can0"
+  std::string bus;                // in a multi-bus log, the bus to use ("" = all)
+  bool realtime = false;          // replay at recorded speed
+};
+
+struct SyncConfig {
+  double rate_hz = 100.0;        // fixed output rate of synchronised samples
+  double latency_s = 0.05;       // how long to wait for late messages before emitting a sample
+  double max_fill_gap_s = 1.0;   // a bus silence longer than this is not filled with samples
+};
+
+struct GateConfig {
+  double min_speed_mps = 5.0;            // model singular at v -> 0
+  double standstill_speed_mps = 0.1;
+  double standstill_min_s = 1.0;
+  double max_abs_lat_accel_mps2 = 4.0;   // linear range of the single-track model
+  double drive_gap_s = 60.0;             // bus silence that ends a key cycle
+  double min_drive_km = 2.0;             // the study's rule
+  double min_segment_s = 4.0;            // shortest contiguous gated stretch for the dynamic fit
+  double quasi_steady_max_steer_rate_radps = 0.05;  // |d_sw'| for the steady-state statistics
+  double quasi_steady_max_yaw_accel_radps2 = 0.02;
+};
+
+// Box, initial value and whether each of p = (m, Jz, cv, ch, lv, is) is fixed.
+struct ParameterSpec {
+  double lower = 0, upper = 0, initial = 0;
+  bool fixed = false;
+};
+
+struct IdentificationConfig {
+  std::array<ParameterSpec, 6> params;  // order of ndsid::model::ParamIndex
+  double rate_hz = 50.0;        // decimated rate of the dynamic fit
+  double burn_in_s = 1.5;       // residuals discarded at each chunk start (unknown initial state)
+  double chunk_s = 60.0;        // long segments are simulated in independent chunks of this length
+  double window_h = 20.0;       // re-identification window: most recent gated hours
+  double period_s = 600.0;      // re-identify every this many seconds of *data* time
+  double validation_fraction = 0.2;  // share of drives held out for validation RMSE
+  int max_iterations = 50;
+  int threads = 2;
+};
+
+struct AdequacyConfig {
+  double tolerance = 0.01;          // relative change / relative standard error of EG
+  double hold_h = 2.0;              // both must stay under tolerance for this many gated hours
+  double change_window_h = 2.0;     // EG's relative change is measured over this many gated hours
+  double kl_threshold = 0.01;       // coverage growth (KL divergence, nats) considered flat
+};
+
+struct LcmConfig {
+  std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string estimate_channel = "NDSID_ESTIMATE";
+  std::string status_channel = "NDSID_STATUS";
+  std::string monitor_channel = "NDSID_MONITOR";
+  double status_rate_hz = 1.0;
+  double monitor_rate_hz = 10.0;
+};
+
+struct VehicleConfig {
+  std::string name;            // keys the learned state: a state from another vehicle is never loaded
+  double wheelbase_m = 0;      // l, data sheet
+  double mass_kg = 0;          // data sheet; m is fixed to it unless identification frees it
+};
+
+struct Config {
+  std::string path;            // the YAML file
+  VehicleConfig vehicle;
+  SourceConfig source;
+  std::string dbc;             // resolved path
+  std::array<std::optional<RoleSignal>, kNumRoles> roles;
+  std::vector<ValiditySignal> validity;
+  SyncConfig sync;
+  GateConfig gate;
+  IdentificationConfig identification;
+  AdequacyConfig adequacy;
+  LcmConfig lcm;
+  std::string state_dir = "/var/lib/ndsid";
+  std::string report_dir = "out/report";
+  std::string log_level = "info";
+  std::vector<std::string> model_effects;  // effect names added to the base model
+
+  const RoleSignal* role(Role r) const { return roles[static_cast<int>(r)] ? &*roles[static_cast<int>(r)] : nullptr; }
+};
+
+// Loads and validates. Throws ConfigError "file:line: key.path: message" for unknown keys, wrong
+// types, values out of range, missing required roles.
+Config LoadConfig(const std::string& path);
+Config ParseConfig(const std::string& yaml_text, const std::string& path_for_messages);
+
+// Unit string -> factor to SI for a role (throws ConfigError on an unknown unit for that role).
+double UnitToSi(Role role, const std::string& unit);
+
+}  // namespace ndsid::config
+
+namespace ndsid::dbc {
+struct Database;
+}
+
+namespace ndsid::config {
+// Every role and validity signal must exist in the DBC; throws ConfigError naming the YAML line
+// and the missing message/signal.
+void ValidateAgainstDbc(const Config& config, const dbc::Database& db);
+}  // namespace ndsid::config

@@ -1,0 +1,88 @@
+// Windowed output-error identification of the single-track model with Ceres (physics.md §1):
+// each gated segment is simulated independently from its inputs (in chunks, burn-in dropped),
+// the parameters p = (m, Jz, cv, ch, lv, is) are bounded by the configured box, m fixed by
+// default, and the result carries EG with a standard error, the parameter correlations, the
+// training and validation RMSE and an identifiability report.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ndsid/config/config.h"
+#include "ndsid/model/single_track.h"
+#include "ndsid/stats/segment.h"
+
+namespace ndsid::identify {
+
+using SegmentList = std::vector<const stats::Segment*>;
+
+struct ParameterEstimate {
+  double value = 0;
+  double se = 0;          // standard error (0 when fixed)
+  bool fixed = false;
+  bool at_bound = false;  // ended on the box: the data push it outside the prior box
+};
+
+struct WeakDirection {
+  double singular_value_ratio = 0;  // relative to the largest (scaled Jacobian)
+  std::string description;          // e.g. "+0.50 m +0.50 Jz +0.50 cv +0.50 ch"
+};
+
+struct IdentifiabilityReport {
+  std::array<double, model::kNumParams> singular_values{};  // of the column-scaled Jacobian (free params)
+  double condition_number = 0;
+  std::vector<WeakDirection> weak;  // directions the data do not determine
+  std::vector<std::string> notes;   // e.g. "m fixed from configuration: only cv/m, ch/m, Jz/m determined"
+};
+
+struct IdentificationResult {
+  bool valid = false;
+  std::string reason;  // why not valid (no data, solver failure, non-finite)
+  std::array<ParameterEstimate, model::kNumParams> params{};
+  double eg_rad_per_mps2 = 0;
+  double eg_se_rad_per_mps2 = 0;
+  double eg_deg_per_g = 0;
+  double eg_se_deg_per_g = 0;
+  std::array<double, model::kNumParams * model::kNumParams> correlation{};  // row-major, free params
+  double rmse_train_mps2 = 0;
+  double rmse_validation_mps2 = -1;  // -1: no validation data
+  size_t residuals_train = 0;
+  size_t residuals_validation = 0;
+  size_t chunks = 0;
+  double train_hours = 0;
+  int iterations = 0;
+  double solve_seconds = 0;
+  std::string termination;
+  std::string se_method;  // "cluster-robust (N chunks)" or "autocorrelation-corrected"
+  IdentifiabilityReport identifiability;
+
+  model::Params<double> AsParams() const;
+};
+
+class Identifier {
+ public:
+  Identifier(const config::IdentificationConfig& config, double wheelbase_m);
+
+  // warm_start: initial parameters (e.g. from the steady-state estimate); else config initials.
+  IdentificationResult Identify(const SegmentList& training, const SegmentList& validation,
+                                const std::optional<model::Params<double>>& warm_start = std::nullopt) const;
+
+  // RMSE of the model with parameters p over the segments (burn-in dropped as in the fit);
+  // returns -1 when there are no residuals.
+  double Rmse(const model::Params<double>& p, const SegmentList& segments, size_t* count = nullptr) const;
+
+  // Parameters from the configured initial values, with is and EG taken from a steady-state
+  // estimate (cv adjusted so that EG matches), all clamped to the box.
+  model::Params<double> WarmStart(double steer_ratio, double eg_rad_per_mps2) const;
+
+  const config::IdentificationConfig& config() const { return config_; }
+  double wheelbase_m() const { return wheelbase_m_; }
+
+ private:
+  config::IdentificationConfig config_;
+  double wheelbase_m_;
+};
+
+}  // namespace ndsid::identify

@@ -1,0 +1,82 @@
+// Everything learned from gated samples: steady-state statistics, coverage, and the window of
+// recent segments for the dynamic fit. Applies the study's drive rule: a drive's data are held
+// back until it has covered min_drive_km, and discarded if it ends shorter.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ndsid/config/config.h"
+#include "ndsid/gate/gate.h"
+#include "ndsid/stats/coverage.h"
+#include "ndsid/stats/segment.h"
+#include "ndsid/stats/steady_state.h"
+
+namespace ndsid::stats {
+
+struct DriveSummary {
+  int64_t drive_id = 0;
+  int64_t start_ns = 0;
+  int64_t end_ns = 0;
+  double distance_km = 0;
+  double gated_s = 0;   // accepted time
+  bool used = false;    // passed the min_drive_km rule
+};
+
+struct AccumulatorCounters {
+  uint64_t short_drive_samples = 0;   // accepted samples discarded because their drive was < min_drive_km
+  uint64_t short_segment_samples = 0; // accepted samples in stretches shorter than min_segment_s
+  uint64_t evicted_segments = 0;      // segments dropped from the window (older than window_h)
+};
+
+class Accumulator {
+ public:
+  Accumulator(const config::Config& config, double sync_rate_hz);
+
+  void Add(const gate::GatedSample& g);
+  void Finish();  // end of data: close the current segment and drive
+
+  const SteadyStateStats& steady_state() const { return steady_; }
+  const Coverage& coverage() const { return coverage_; }
+  // Shared, immutable segments: an identification running on another thread keeps its copy
+  // of the list valid while the window moves on.
+  const std::deque<std::shared_ptr<const Segment>>& window() const { return window_; }
+  const std::vector<DriveSummary>& drives() const { return drives_; }
+  double gated_hours() const { return gated_s_ / 3600.0; }  // accepted time of used drives
+  double window_hours() const;
+  const AccumulatorCounters& counters() const { return counters_; }
+
+ private:
+  void CloseSegment();
+  void CloseDrive();
+  void CommitPending();
+
+  const config::Config& config_;
+  int decimation_;
+  double segment_dt_s_;
+  size_t min_segment_samples_;
+  double window_s_;
+
+  SteadyStateStats steady_, pending_steady_;
+  Coverage coverage_, pending_coverage_;
+  std::deque<std::shared_ptr<const Segment>> window_;
+  std::vector<std::shared_ptr<const Segment>> pending_segments_;
+  std::vector<DriveSummary> drives_;
+  double gated_s_ = 0, pending_gated_s_ = 0;
+  uint64_t pending_samples_ = 0;
+  bool drive_open_ = false;
+  bool drive_used_ = false;
+
+  Segment current_;
+  bool segment_open_ = false;
+  // Decimation accumulator.
+  SegmentSample sum_{};
+  int summed_ = 0;
+  int64_t sum_t0_ns_ = 0;
+  AccumulatorCounters counters_;
+};
+
+}  // namespace ndsid::stats

@@ -1,0 +1,44 @@
+// Sufficient statistics of a 3-regressor linear least-squares problem y = x' theta + e:
+// X'X, X'y, y'y, n. Exact, O(1) memory, mergeable by addition, optional exponential forgetting.
+#pragma once
+
+#include <array>
+#include <string>
+
+namespace ndsid::stats {
+
+struct LsSolution {
+  bool valid = false;
+  std::string reason;                 // why not valid
+  std::array<double, 3> theta{};
+  std::array<double, 9> covariance{}; // sigma^2 (X'X)^-1, row-major
+  double sigma = 0;                   // residual standard deviation
+  double n = 0;
+};
+
+class RegressionStats {
+ public:
+  static constexpr int kDim = 3;
+  void Add(const std::array<double, kDim>& x, double y, double weight = 1.0) noexcept;
+  void Merge(const RegressionStats& other) noexcept;  // statistics of the union of the data
+  void Forget(double factor) noexcept;                 // scales everything by factor in (0, 1]
+  LsSolution Solve() const;
+
+  const std::array<double, 9>& xtx() const { return xtx_; }
+  const std::array<double, 3>& xty() const { return xty_; }
+  double yty() const { return yty_; }
+  double n() const { return n_; }
+
+  std::string Serialize() const;                       // one line of numbers
+  static RegressionStats Deserialize(const std::string& text);  // throws ndsid::Error
+
+  bool operator==(const RegressionStats&) const = default;
+
+ private:
+  std::array<double, 9> xtx_{};
+  std::array<double, 3> xty_{};
+  double yty_ = 0;
+  double n_ = 0;
+};
+
+}  // namespace ndsid::stats

@@ -1,0 +1,137 @@
+#include "ndsid/adequacy/adequacy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "ndsid/common/error.h"
+
+namespace ndsid::adequacy {
+
+const char* StateName(State s) {
+  switch (s) {
+    case State::kCollecting: return "COLLECTING";
+    case State::kConverging: return "CONVERGING";
+    case State::kAdequate: return "ADEQUATE";
+  }
+  return "?";
+}
+
+Tracker::Tracker(const config::AdequacyConfig& config) : config_(config) {}
+
+// EG at an earlier point of the history (the newest estimate at or before `hours`).
+double Tracker::EgAt(double hours, bool& found) const {
+  found = false;
+  double eg = 0;
+  for (const EgPoint& p : history_) {
+    if (p.gated_hours > hours + 1e-12) break;
+    eg = p.eg;
+    found = true;
+  }
+  return eg;
+}
+
+Report Tracker::Update(double hours, double eg, double eg_se, const stats::Coverage& coverage) {
+  Report r;
+  r.gated_hours = hours;
+  // Coverage growth against the newest snapshot at least one change window old.
+  const Snapshot* then = nullptr;
+  for (const Snapshot& s : snapshots_) {
+    if (s.hours <= hours - config_.change_window_h + 1e-12) then = &s;
+  }
+  if (then) {
+    r.kl_growth = std::max(stats::KlDivergence(coverage.gg(), then->coverage.gg()),
+                           stats::KlDivergence(coverage.v_ay(), then->coverage.v_ay()));
+  }
+  bool found = false;
+  const double eg_then = EgAt(hours - config_.change_window_h, found);
+  if (found && eg != 0) r.rel_change = std::abs(eg - eg_then) / std::abs(eg);
+  if (eg != 0) r.rel_se = eg_se / std::abs(eg);
+  history_.push_back({hours, eg, eg_se, r.kl_growth});
+
+  // Keep coverage snapshots a quarter window apart, and only as far back as needed.
+  if (snapshots_.empty() || hours - snapshots_.back().hours >= config_.change_window_h / 4) {
+    snapshots_.push_back({hours, coverage});
+  }
+  while (snapshots_.size() > 2 && snapshots_[1].hours <= hours - config_.change_window_h) snapshots_.pop_front();
+
+  const bool under = r.rel_change >= 0 && r.rel_change < config_.tolerance && r.rel_se >= 0 &&
+                     r.rel_se < config_.tolerance && r.kl_growth >= 0 && r.kl_growth < config_.kl_threshold;
+  if (under) {
+    if (under_since_hours_ < 0) under_since_hours_ = hours;
+    r.hours_under_tolerance = hours - under_since_hours_;
+  } else {
+    under_since_hours_ = -1;
+  }
+  char buf[512];
+  if (r.rel_change < 0 || r.kl_growth < 0) {
+    r.state = State::kCollecting;
+    std::snprintf(buf, sizeof buf, "%.2f gated h; need %.1f h of history before EG's change can be judged", hours,
+                  config_.change_window_h);
+  } else if (under && r.hours_under_tolerance >= config_.hold_h) {
+    r.state = State::kAdequate;
+    std::snprintf(buf, sizeof buf,
+                  "EG moved %.2f %% over the last %.1f h, relative standard error %.2f %%, coverage growth %.4f nats: "
+                  "all under tolerance for %.1f h (hold %.1f h); more driving of this kind adds no information",
+                  100 * r.rel_change, config_.change_window_h, 100 * r.rel_se, r.kl_growth, r.hours_under_tolerance,
+                  config_.hold_h);
+  } else {
+    r.state = State::kConverging;
+    std::snprintf(buf, sizeof buf,
+                  "EG moved %.2f %% over the last %.1f h (tolerance %.2f %%), relative standard error %.2f %%, "
+                  "coverage growth %.4f nats (threshold %.4f); under tolerance for %.1f of %.1f h",
+                  100 * r.rel_change, config_.change_window_h, 100 * config_.tolerance, 100 * r.rel_se, r.kl_growth,
+                  config_.kl_threshold, r.hours_under_tolerance, config_.hold_h);
+  }
+  r.explanation = buf;
+  last_ = r;
+  return r;
+}
+
+std::string Tracker::Serialize() const {
+  std::ostringstream os;
+  os.precision(17);
+  os << history_.size() << '\n';
+  for (const EgPoint& p : history_) os << p.gated_hours << ' ' << p.eg << ' ' << p.eg_se << ' ' << p.kl << '\n';
+  os << snapshots_.size() << '\n';
+  for (const Snapshot& s : snapshots_) os << s.hours << ' ' << s.coverage.Serialize() << '\n';
+  os << under_since_hours_ << ' ' << static_cast<int>(last_.state) << '\n';
+  return os.str();
+}
+
+void Tracker::Deserialize(const std::string& text) {
+  std::istringstream is(text);
+  size_t n = 0;
+  is >> n;
+  if (is.fail() || n > 10'000'000) throw Error("adequacy state: bad history length");
+  std::vector<EgPoint> history(n);
+  for (EgPoint& p : history) is >> p.gated_hours >> p.eg >> p.eg_se >> p.kl;
+  size_t ns = 0;
+  is >> ns;
+  if (is.fail() || ns > 10'000) throw Error("adequacy state: bad snapshot count");
+  std::deque<Snapshot> snaps;
+  std::string line;
+  std::getline(is, line);
+  for (size_t i = 0; i < ns; ++i) {
+    if (!std::getline(is, line)) throw Error("adequacy state: truncated snapshots");
+    std::istringstream ls(line);
+    Snapshot s;
+    ls >> s.hours;
+    std::string rest;
+    std::getline(ls, rest);
+    s.coverage = stats::Coverage::Deserialize(rest);
+    snaps.push_back(std::move(s));
+  }
+  int state = 0;
+  double under = -1;
+  is >> under >> state;
+  if (is.fail()) throw Error("adequacy state: truncated");
+  history_ = std::move(history);
+  snapshots_ = std::move(snaps);
+  under_since_hours_ = under;
+  last_ = Report{};
+  last_.state = static_cast<State>(std::clamp(state, 0, 2));
+}
+
+}  // namespace ndsid::adequacy

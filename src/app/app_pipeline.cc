@@ -1,0 +1,111 @@
+#include "pipeline.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+
+namespace ndsid::app {
+
+Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
+    : config_(config),
+      sync_(config),
+      extractor_(config, db),
+      gate_(config.gate, 1.0 / config.sync.rate_hz),
+      accumulator_(config, config.sync.rate_hz),
+      identifier_(config.identification, config.vehicle.wheelbase_m),
+      adequacy_(config.adequacy) {
+  samples_.reserve(1024);
+}
+
+void Pipeline::ProcessFrames(std::span<const can::CanFrame> frames, const std::vector<std::string>& bus_names) noexcept {
+  for (const can::CanFrame& f : frames) {
+    ++frames_;
+    if (f.timestamp_ns > data_time_ns_) data_time_ns_ = f.timestamp_ns;
+    sync_.Advance(f.timestamp_ns, samples_);
+    extractor_.Process(f, bus_names, sync_);
+    if (samples_.size() >= 512) ConsumeSamples();
+  }
+  ConsumeSamples();
+}
+
+void Pipeline::ConsumeSamples() noexcept {
+  for (const sync::Sample& s : samples_) accumulator_.Add(gate_.Process(s));
+  samples_.clear();
+}
+
+void Pipeline::Finish() {
+  sync_.Flush(samples_);
+  ConsumeSamples();
+  accumulator_.Finish();
+}
+
+bool Pipeline::IdentificationDue() const {
+  if (accumulator_.gated_hours() <= last_fit_gated_hours_) return false;
+  if (accumulator_.window().empty()) return false;
+  return static_cast<double>(data_time_ns_ - last_fit_data_ns_) * 1e-9 >= config_.identification.period_s;
+}
+
+WindowSnapshot Pipeline::Snapshot() const {
+  WindowSnapshot snap;
+  const double frac = config_.identification.validation_fraction;
+  const int64_t every = frac > 0 ? std::max<int64_t>(2, std::llround(1.0 / frac)) : 0;
+  for (const auto& seg : accumulator_.window()) {
+    snap.keep_alive.push_back(seg);
+    const bool held_out = every > 0 && seg->drive_id % every == every - 1;
+    (held_out ? snap.validation : snap.training).push_back(seg.get());
+  }
+  if (snap.training.empty()) {  // too few drives to hold one out: train on everything
+    snap.training.swap(snap.validation);
+  }
+  snap.gated_hours = accumulator_.gated_hours();
+  snap.window_hours = accumulator_.window_hours();
+  snap.data_time_ns = data_time_ns_;
+  const bool yaw = config_.role(config::Role::kYawRate) != nullptr;
+  snap.steady_state = accumulator_.steady_state().Estimate(config_.vehicle.wheelbase_m, yaw);
+  snap.coverage = accumulator_.coverage();
+  return snap;
+}
+
+std::optional<model::Params<double>> Pipeline::WarmStart() const {
+  if (last_ && last_->fit.valid) return last_->fit.AsParams();
+  const bool yaw = config_.role(config::Role::kYawRate) != nullptr;
+  const auto ss = accumulator_.steady_state().Estimate(config_.vehicle.wheelbase_m, yaw);
+  if (ss.valid) return identifier_.WarmStart(ss.steer_ratio, ss.eg_rad_per_mps2);
+  return std::nullopt;
+}
+
+identify::IdentificationResult Pipeline::Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
+                                             const std::optional<model::Params<double>>& warm_start) {
+  return identifier.Identify(snap.training, snap.validation, warm_start);
+}
+
+const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit) {
+  last_fit_data_ns_ = snap.data_time_ns;
+  last_fit_gated_hours_ = snap.gated_hours;
+  Estimate e;
+  e.data_time_ns = snap.data_time_ns;
+  e.steady_state = snap.steady_state;
+  e.gated_hours = snap.gated_hours;
+  e.window_hours = snap.window_hours;
+  e.training_segments = snap.training.size();
+  e.validation_segments = snap.validation.size();
+  e.fit = std::move(fit);
+  if (e.fit.valid) {
+    e.adequacy = adequacy_.Update(snap.gated_hours, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2, snap.coverage);
+    last_ = e;
+  } else {
+    // Keep the last good estimate; report this one as not valid with its reason.
+    e.adequacy = adequacy_.last();
+    spdlog::warn("identification not valid: {}", e.fit.reason);
+    if (!last_) last_ = e;
+  }
+  history_.push_back(e);
+  return history_.back();
+}
+
+const Estimate& Pipeline::IdentifyNow() {
+  const WindowSnapshot snap = Snapshot();
+  return Accept(snap, Fit(identifier_, snap, WarmStart()));
+}
+
+}  // namespace ndsid::app

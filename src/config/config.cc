@@ -1,0 +1,322 @@
+#include "ndsid/config/config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "ndsid/common/atomic_file.h"
+#include "ndsid/dbc/database.h"
+#include "yaml_reader.h"
+
+namespace ndsid::config {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+struct RoleInfo {
+  const char* key;
+  bool required;
+  bool flag;
+};
+constexpr RoleInfo kRoles[kNumRoles] = {
+    {"steering_wheel_angle", true, false},   {"vehicle_speed", true, false},
+    {"lateral_acceleration", true, false},   {"yaw_rate", false, false},
+    {"longitudinal_acceleration", false, false}, {"reverse_gear", false, true},
+    {"esc_intervention", false, true},
+};
+
+std::string Resolve(const std::string& base_dir, const std::string& p) {
+  if (p.empty() || std::filesystem::path(p).is_absolute()) return p;
+  return (std::filesystem::path(base_dir) / p).lexically_normal().string();
+}
+
+void CheckRange(const YamlReader& r, const std::string& key, double v, double lo, double hi) {
+  if (!(v >= lo && v <= hi)) {
+    r.Fail(key, "value " + std::to_string(v) + " out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  }
+}
+
+double Positive(const YamlReader& r, const std::string& key, double fallback) {
+  const double v = r.Number(key, fallback);
+  if (!(v > 0)) r.Fail(key, "must be > 0");
+  return v;
+}
+
+SignalRef ReadRef(const YamlReader& r) { return {r.String("message"), r.String("signal")}; }
+
+RoleSignal ReadRole(const YamlReader& parent, Role role) {
+  const YamlReader r = parent.Child(RoleKey(role));
+  RoleSignal s;
+  s.ref = ReadRef(r);
+  s.line = parent.Line(RoleKey(role));
+  if (RoleIsFlag(role)) {
+    s.active_values = r.Numbers("active_values", {1.0});
+    s.timeout_s = Positive(r, "timeout_s", 0.5);
+  } else {
+    s.unit = r.String("unit");
+    const double sign = r.Number("sign", 1.0);
+    if (sign != 1.0 && sign != -1.0) r.Fail("sign", "must be 1 or -1");
+    try {
+      s.scale_to_si = sign * UnitToSi(role, s.unit);
+    } catch (const ConfigError& e) {
+      r.Fail("unit", e.what());
+    }
+    s.timeout_s = Positive(r, "timeout_s", 0.1);
+  }
+  r.Finish();
+  return s;
+}
+
+void ReadParams(const YamlReader& r, const VehicleConfig& vehicle, IdentificationConfig& id) {
+  // Defaults: the study's box for a C-Max-class car (physics.md §1), m fixed to the data sheet.
+  struct Default {
+    const char* key;
+    double lo, hi;
+  };
+  const Default defaults[6] = {{"m", 1800, 2000},  {"Jz", 2200, 3200},   {"cv", 65000, 90000},
+                               {"ch", 110000, 135000}, {"lv", 1.0, 1.3}, {"is", 14.2, 15.3}};
+  const YamlReader params = r.Has("parameters") ? r.Child("parameters") : YamlReader(YAML::Node(), r.file(), "identification.parameters");
+  for (int i = 0; i < 6; ++i) {
+    ParameterSpec& p = id.params[i];
+    p.lower = defaults[i].lo;
+    p.upper = defaults[i].hi;
+    p.fixed = (i == 0);
+    if (params.Has(defaults[i].key)) {
+      const YamlReader pr = params.Child(defaults[i].key);
+      p.lower = pr.Number("min", p.lower);
+      p.upper = pr.Number("max", p.upper);
+      p.initial = pr.Number("initial", 0.0);
+      p.fixed = pr.Bool("fixed", p.fixed);
+      pr.Finish();
+      if (!(p.lower > 0 && p.upper > p.lower)) params.Fail(defaults[i].key, "needs 0 < min < max");
+    } else {
+      params.Raw(defaults[i].key);
+    }
+    if (p.initial == 0.0) p.initial = (i == 0 && vehicle.mass_kg > 0) ? vehicle.mass_kg : 0.5 * (p.lower + p.upper);
+    if (i == 0 && p.fixed && vehicle.mass_kg > 0) p.initial = vehicle.mass_kg;
+    if (p.initial < p.lower || p.initial > p.upper) {
+      if (i == 0 && p.fixed) {
+        p.lower = std::min(p.lower, p.initial);
+        p.upper = std::max(p.upper, p.initial);
+      } else {
+        params.Fail(defaults[i].key, "initial value outside [min, max]");
+      }
+    }
+  }
+  params.Finish();
+}
+
+}  // namespace
+
+const char* RoleKey(Role role) { return kRoles[static_cast<int>(role)].key; }
+bool RoleIsRequired(Role role) { return kRoles[static_cast<int>(role)].required; }
+bool RoleIsFlag(Role role) { return kRoles[static_cast<int>(role)].flag; }
+
+bool RoleSignal::IsActive(double physical) const {
+  return std::any_of(active_values.begin(), active_values.end(), [&](double a) { return std::abs(a - physical) < 1e-9; });
+}
+
+double UnitToSi(Role role, const std::string& unit) {
+  switch (role) {
+    case Role::kSteeringWheelAngle:
+      if (unit == "deg") return kDegToRad;
+      if (unit == "rad") return 1.0;
+      break;
+    case Role::kSpeed:
+      if (unit == "km/h" || unit == "kph") return 1.0 / 3.6;
+      if (unit == "m/s") return 1.0;
+      if (unit == "mph") return 0.44704;
+      break;
+    case Role::kLateralAcceleration:
+    case Role::kLongitudinalAcceleration:
+      if (unit == "m/s^2" || unit == "m/s2") return 1.0;
+      if (unit == "g") return 9.81;
+      break;
+    case Role::kYawRate:
+      if (unit == "deg/s") return kDegToRad;
+      if (unit == "rad/s") return 1.0;
+      break;
+    default:
+      return 1.0;
+  }
+  throw ConfigError("unknown unit '" + unit + "' for " + RoleKey(role));
+}
+
+Config ParseConfig(const std::string& yaml_text, const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(FormatLocation(path, e.mark.line + 1, e.mark.column + 1, "YAML syntax: " + e.msg));
+  }
+  if (!root || !root.IsMap()) throw ConfigError(FormatLocation(path, 1, 0, "expected a YAML mapping at the top"));
+  const std::string base_dir = std::filesystem::path(path).parent_path().string();
+  const YamlReader top(root, path, "");
+  Config c;
+  c.path = path;
+
+  {
+    const YamlReader v = top.Child("vehicle");
+    c.vehicle.name = v.String("name");
+    if (c.vehicle.name.empty()) v.Fail("name", "must not be empty");
+    c.vehicle.wheelbase_m = v.Number("wheelbase_m");
+    CheckRange(v, "wheelbase_m", c.vehicle.wheelbase_m, 1.0, 8.0);
+    c.vehicle.mass_kg = v.Number("mass_kg");
+    CheckRange(v, "mass_kg", c.vehicle.mass_kg, 200.0, 60000.0);
+    v.Finish();
+  }
+  {
+    const YamlReader s = top.Child("source");
+    const std::string type = s.String("type");
+    if (type == "log") {
+      c.source.type = SourceConfig::Type::kLog;
+      for (const auto& l : s.Strings("logs", {})) c.source.logs.push_back(Resolve(base_dir, l));
+      if (c.source.logs.empty()) s.Fail("logs", "a log source needs at least one file");
+    } else if (type == "socketcan") {
+      c.source.type = SourceConfig::Type::kSocketCan;
+      c.source.interface = s.String("interface");
+      s.Strings("logs", {});
+    } else {
+      s.Fail("type", "must be 'log' or 'socketcan', got '" + type + "'");
+    }
+    if (c.source.type == SourceConfig::Type::kLog) s.String("interface", "");
+    c.source.bus = s.String("bus", "");
+    c.source.realtime = s.Bool("realtime", false);
+    s.Finish();
+  }
+  c.dbc = Resolve(base_dir, top.String("dbc"));
+  {
+    const YamlReader sig = top.Child("signals");
+    for (int i = 0; i < kNumRoles; ++i) {
+      const Role role = static_cast<Role>(i);
+      if (sig.Has(RoleKey(role))) {
+        c.roles[i] = ReadRole(sig, role);
+      } else if (RoleIsRequired(role)) {
+        sig.Fail(RoleKey(role), "missing required role");
+      } else {
+        sig.Raw(RoleKey(role));
+      }
+    }
+    const auto validity = sig.Raw("validity");
+    if (validity) {
+      if (!validity->IsSequence()) sig.FailAt(*validity, "validity", "expected a list");
+      int idx = 0;
+      for (const auto& item : *validity) {
+        const YamlReader vr(item, path, "signals.validity[" + std::to_string(idx++) + "]");
+        ValiditySignal v;
+        v.ref = ReadRef(vr);
+        v.valid_values = vr.Numbers("valid_values", {1.0});
+        v.timeout_s = Positive(vr, "timeout_s", 0.2);
+        v.line = item.Mark().line + 1;
+        vr.Finish();
+        c.validity.push_back(v);
+      }
+    }
+    sig.Finish();
+  }
+  if (top.Has("sync")) {
+    const YamlReader s = top.Child("sync");
+    c.sync.rate_hz = Positive(s, "rate_hz", c.sync.rate_hz);
+    CheckRange(s, "rate_hz", c.sync.rate_hz, 10, 1000);
+    c.sync.latency_s = Positive(s, "latency_s", c.sync.latency_s);
+    c.sync.max_fill_gap_s = Positive(s, "max_fill_gap_s", c.sync.max_fill_gap_s);
+    s.Finish();
+  }
+  if (top.Has("gate")) {
+    const YamlReader g = top.Child("gate");
+    GateConfig& gc = c.gate;
+    gc.min_speed_mps = Positive(g, "min_speed_mps", gc.min_speed_mps);
+    gc.standstill_speed_mps = Positive(g, "standstill_speed_mps", gc.standstill_speed_mps);
+    gc.standstill_min_s = Positive(g, "standstill_min_s", gc.standstill_min_s);
+    gc.max_abs_lat_accel_mps2 = Positive(g, "max_abs_lat_accel_mps2", gc.max_abs_lat_accel_mps2);
+    gc.drive_gap_s = Positive(g, "drive_gap_s", gc.drive_gap_s);
+    gc.min_drive_km = g.Number("min_drive_km", gc.min_drive_km);
+    CheckRange(g, "min_drive_km", gc.min_drive_km, 0, 1000);
+    gc.min_segment_s = Positive(g, "min_segment_s", gc.min_segment_s);
+    gc.quasi_steady_max_steer_rate_radps = Positive(g, "quasi_steady_max_steer_rate_radps", gc.quasi_steady_max_steer_rate_radps);
+    gc.quasi_steady_max_yaw_accel_radps2 = Positive(g, "quasi_steady_max_yaw_accel_radps2", gc.quasi_steady_max_yaw_accel_radps2);
+    g.Finish();
+  }
+  {
+    const YamlReader id = top.Has("identification") ? top.Child("identification")
+                                                   : YamlReader(YAML::Node(), path, "identification");
+    IdentificationConfig& ic = c.identification;
+    ReadParams(id, c.vehicle, ic);
+    ic.rate_hz = Positive(id, "rate_hz", ic.rate_hz);
+    CheckRange(id, "rate_hz", ic.rate_hz, 10, 200);
+    ic.burn_in_s = Positive(id, "burn_in_s", ic.burn_in_s);
+    ic.chunk_s = Positive(id, "chunk_s", ic.chunk_s);
+    if (ic.chunk_s <= 2 * ic.burn_in_s) id.Fail("chunk_s", "must exceed twice burn_in_s");
+    ic.window_h = Positive(id, "window_h", ic.window_h);
+    ic.period_s = Positive(id, "period_s", ic.period_s);
+    ic.validation_fraction = id.Number("validation_fraction", ic.validation_fraction);
+    CheckRange(id, "validation_fraction", ic.validation_fraction, 0.0, 0.9);
+    ic.max_iterations = id.Integer("max_iterations", ic.max_iterations);
+    ic.threads = id.Integer("threads", ic.threads);
+    if (ic.threads < 1) id.Fail("threads", "must be >= 1");
+    id.Finish();
+  }
+  if (top.Has("adequacy")) {
+    const YamlReader a = top.Child("adequacy");
+    c.adequacy.tolerance = Positive(a, "tolerance", c.adequacy.tolerance);
+    c.adequacy.hold_h = Positive(a, "hold_h", c.adequacy.hold_h);
+    c.adequacy.change_window_h = Positive(a, "change_window_h", c.adequacy.change_window_h);
+    c.adequacy.kl_threshold = Positive(a, "kl_threshold", c.adequacy.kl_threshold);
+    a.Finish();
+  }
+  if (top.Has("lcm")) {
+    const YamlReader l = top.Child("lcm");
+    c.lcm.url = l.String("url", c.lcm.url);
+    c.lcm.estimate_channel = l.String("estimate_channel", c.lcm.estimate_channel);
+    c.lcm.status_channel = l.String("status_channel", c.lcm.status_channel);
+    c.lcm.monitor_channel = l.String("monitor_channel", c.lcm.monitor_channel);
+    c.lcm.status_rate_hz = Positive(l, "status_rate_hz", c.lcm.status_rate_hz);
+    c.lcm.monitor_rate_hz = Positive(l, "monitor_rate_hz", c.lcm.monitor_rate_hz);
+    l.Finish();
+  }
+  if (top.Has("model")) {
+    const YamlReader m = top.Child("model");
+    c.model_effects = m.Strings("effects", {});
+    m.Finish();
+  }
+  c.state_dir = Resolve(base_dir, top.String("state_dir", c.state_dir));
+  c.report_dir = top.String("report_dir", c.report_dir);
+  c.log_level = top.String("log_level", c.log_level);
+  static const char* kLevels[] = {"trace", "debug", "info", "warn", "error", "critical", "off"};
+  if (std::none_of(std::begin(kLevels), std::end(kLevels), [&](const char* l) { return c.log_level == l; })) {
+    top.Fail("log_level", "must be one of trace, debug, info, warn, error, critical, off");
+  }
+  top.Finish();
+  return c;
+}
+
+Config LoadConfig(const std::string& path) {
+  std::string text;
+  try {
+    text = ReadWholeFile(path);
+  } catch (const Error& e) {
+    throw ConfigError(e.what());
+  }
+  return ParseConfig(text, path);
+}
+
+void ValidateAgainstDbc(const Config& c, const dbc::Database& db) {
+  auto check = [&](const SignalRef& ref, int line, const std::string& what) {
+    const dbc::Message* m = db.FindMessage(ref.message);
+    if (!m) {
+      throw ConfigError(FormatLocation(c.path, line, 0, what + ": message '" + ref.message + "' not in DBC " + db.file));
+    }
+    if (!m->FindSignal(ref.signal)) {
+      throw ConfigError(FormatLocation(c.path, line, 0,
+                                       what + ": signal '" + ref.signal + "' not in message '" + ref.message + "' of DBC " + db.file));
+    }
+  };
+  for (int i = 0; i < kNumRoles; ++i) {
+    if (c.roles[i]) check(c.roles[i]->ref, c.roles[i]->line, std::string("signals.") + RoleKey(static_cast<Role>(i)));
+  }
+  for (const auto& v : c.validity) check(v.ref, v.line, "signals.validity");
+}
+
+}  // namespace ndsid::config

@@ -1,0 +1,96 @@
+#include "ndsid/stats/regression_stats.h"
+
+#include <cmath>
+#include <sstream>
+
+#include "ndsid/common/error.h"
+
+namespace ndsid::stats {
+
+void RegressionStats::Add(const std::array<double, kDim>& x, double y, double w) noexcept {
+  for (int i = 0; i < kDim; ++i) {
+    for (int j = 0; j < kDim; ++j) xtx_[i * kDim + j] += w * x[i] * x[j];
+    xty_[i] += w * x[i] * y;
+  }
+  yty_ += w * y * y;
+  n_ += w;
+}
+
+void RegressionStats::Merge(const RegressionStats& o) noexcept {
+  for (int i = 0; i < 9; ++i) xtx_[i] += o.xtx_[i];
+  for (int i = 0; i < 3; ++i) xty_[i] += o.xty_[i];
+  yty_ += o.yty_;
+  n_ += o.n_;
+}
+
+void RegressionStats::Forget(double f) noexcept {
+  for (double& v : xtx_) v *= f;
+  for (double& v : xty_) v *= f;
+  yty_ *= f;
+  n_ *= f;
+}
+
+LsSolution RegressionStats::Solve() const {
+  LsSolution s;
+  s.n = n_;
+  if (n_ < 10) {
+    s.reason = "fewer than 10 quasi-steady samples";
+    return s;
+  }
+  // Symmetric 3x3 inverse by cofactors, on the matrix scaled to unit diagonal for conditioning.
+  std::array<double, 3> d{};
+  for (int i = 0; i < 3; ++i) d[i] = xtx_[i * 4] > 0 ? 1.0 / std::sqrt(xtx_[i * 4]) : 0.0;
+  if (d[0] == 0 || d[1] == 0 || d[2] == 0) {
+    s.reason = "a regressor is identically zero";
+    return s;
+  }
+  double a[9];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) a[i * 3 + j] = xtx_[i * 3 + j] * d[i] * d[j];
+  const double c00 = a[4] * a[8] - a[5] * a[7], c01 = a[5] * a[6] - a[3] * a[8], c02 = a[3] * a[7] - a[4] * a[6];
+  const double det = a[0] * c00 + a[1] * c01 + a[2] * c02;
+  if (!(std::abs(det) > 1e-12)) {
+    s.reason = "regressors are collinear (not enough variety in speed and lateral acceleration)";
+    return s;
+  }
+  double inv[9] = {c00, a[2] * a[7] - a[1] * a[8], a[1] * a[5] - a[2] * a[4],
+                   c01, a[0] * a[8] - a[2] * a[6], a[2] * a[3] - a[0] * a[5],
+                   c02, a[1] * a[6] - a[0] * a[7], a[0] * a[4] - a[1] * a[3]};
+  for (double& v : inv) v /= det;
+  for (int i = 0; i < 3; ++i) {
+    double t = 0;
+    for (int j = 0; j < 3; ++j) t += inv[i * 3 + j] * d[i] * d[j] * xty_[j];
+    s.theta[i] = t;
+  }
+  // RSS = y'y - 2 theta'X'y + theta'X'X theta = y'y - theta'X'y at the optimum.
+  double rss = yty_;
+  for (int i = 0; i < 3; ++i) rss -= s.theta[i] * xty_[i];
+  rss = std::max(rss, 0.0);
+  const double dof = std::max(n_ - 3.0, 1.0);
+  s.sigma = std::sqrt(rss / dof);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) s.covariance[i * 3 + j] = s.sigma * s.sigma * inv[i * 3 + j] * d[i] * d[j];
+  s.valid = true;
+  return s;
+}
+
+std::string RegressionStats::Serialize() const {
+  std::ostringstream os;
+  os.precision(17);
+  for (double v : xtx_) os << v << ' ';
+  for (double v : xty_) os << v << ' ';
+  os << yty_ << ' ' << n_;
+  return os.str();
+}
+
+RegressionStats RegressionStats::Deserialize(const std::string& text) {
+  std::istringstream is(text);
+  RegressionStats r;
+  for (double& v : r.xtx_) is >> v;
+  for (double& v : r.xty_) is >> v;
+  is >> r.yty_ >> r.n_;
+  if (is.fail()) throw Error("regression statistics: expected 14 numbers, got '" + text + "'");
+  return r;
+}
+
+}  // namespace ndsid::stats

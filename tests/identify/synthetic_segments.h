@@ -1,0 +1,68 @@
+// Test data for the identifier: segments of a known single-track vehicle driven with smooth
+// random steering and speed, integrated at 1 kHz (not the identifier's 50 Hz) and sampled at
+// 50 Hz with white noise on a_y. Fixed seeds, so failures reproduce.
+#pragma once
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "ndsid/model/simulate.h"
+#include "ndsid/stats/segment.h"
+
+namespace ndsid::testing {
+
+inline model::Params<double> TruthParams() { return {1900, 2700, 75000, 120000, 1.15, 14.8}; }
+inline constexpr double kWheelbase = 2.648;
+
+inline std::vector<stats::Segment> SyntheticSegments(int count, double seconds, double noise_mps2, uint64_t seed,
+                                                     const model::Params<double>& p = TruthParams()) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::vector<stats::Segment> out;
+  constexpr double kFine = 0.001, kDt = 0.02;
+  for (int s = 0; s < count; ++s) {
+    // Steering: sum of 4 sinusoids (0.05..0.6 Hz) of up to ~40 deg at the wheel; speed 8..35 m/s.
+    double amp[4], freq[4], phase[4];
+    for (int i = 0; i < 4; ++i) {
+      amp[i] = (0.05 + 0.15 * uni(rng)) / (1 + i);
+      freq[i] = 0.05 + 0.55 * uni(rng);
+      phase[i] = 2 * M_PI * uni(rng);
+    }
+    const double v0 = 8 + 27 * uni(rng), dv = 3 * uni(rng), fv = 0.01 + 0.03 * uni(rng);
+    auto steer = [&](double t) {
+      double d = 0;
+      for (int i = 0; i < 4; ++i) d += amp[i] * std::sin(2 * M_PI * freq[i] * t + phase[i]);
+      return d;
+    };
+    auto speed = [&](double t) { return v0 + dv * std::sin(2 * M_PI * fv * t); };
+    stats::Segment seg;
+    seg.drive_id = s;
+    seg.dt_s = kDt;
+    seg.has_yaw_rate = true;
+    model::State<double> x = model::SteadyState(p, kWheelbase, steer(0), speed(0));
+    const int steps_per_sample = static_cast<int>(std::lround(kDt / kFine));
+    const int n = static_cast<int>(seconds / kDt);
+    for (int k = 0; k < n; ++k) {
+      const double t = k * kDt;
+      const auto d = model::LinearDerivative(p, kWheelbase, x, steer(t), speed(t));
+      seg.samples.push_back({static_cast<float>(steer(t)), static_cast<float>(speed(t)),
+                             static_cast<float>(d.a_y + noise_mps2 * gauss(rng)), static_cast<float>(x.r), 0.0f});
+      for (int j = 0; j < steps_per_sample; ++j) {
+        const double t0 = t + j * kFine;
+        model::Rk4Step(p, kWheelbase, x, steer(t0), steer(t0 + kFine), speed(t0), speed(t0 + kFine), kFine);
+      }
+    }
+    out.push_back(std::move(seg));
+  }
+  return out;
+}
+
+inline std::vector<const stats::Segment*> Pointers(const std::vector<stats::Segment>& v) {
+  std::vector<const stats::Segment*> p;
+  for (const auto& s : v) p.push_back(&s);
+  return p;
+}
+
+}  // namespace ndsid::testing
