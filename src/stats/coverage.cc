@@ -29,9 +29,10 @@ void Histogram2d::Merge(const Histogram2d& o) {
   for (size_t i = 0; i < counts.size(); ++i) counts[i] += o.counts[i];
 }
 
-double KlDivergence(const Histogram2d& p, const Histogram2d& q, double alpha) {
+double KlDivergence(const Histogram2d& p, const Histogram2d& q, double prior_samples) {
   if (p.counts.size() != q.counts.size() || p.counts.empty()) return 0.0;
   const double k = static_cast<double>(p.counts.size());
+  const double alpha = prior_samples / k;
   const double tp = p.total() + alpha * k, tq = q.total() + alpha * k;
   double kl = 0;
   for (size_t i = 0; i < p.counts.size(); ++i) {

@@ -24,8 +24,9 @@ struct Histogram2d {
 };
 
 // KL(p || q) in nats of two histograms of the same shape, each normalised, with a small
-// additive prior (Jeffreys-like, `alpha` per bin) so empty bins do not give infinities.
-double KlDivergence(const Histogram2d& p, const Histogram2d& q, double alpha = 0.5);
+// uniform prior worth `prior_samples` samples in all (spread over the bins) so empty bins
+// give large but finite terms.
+double KlDivergence(const Histogram2d& p, const Histogram2d& q, double prior_samples = 1.0);
 
 class Coverage {
  public:

@@ -1,0 +1,77 @@
+#include "ndsid/adequacy/adequacy.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace ndsid::adequacy {
+namespace {
+
+stats::Coverage SomeCoverage(int n) {
+  stats::Coverage c;
+  for (int i = 0; i < n; ++i) {
+    gate::GatedSample g;
+    g.verdict = gate::Verdict::kAccepted;
+    g.sample.speed_mps = 20;
+    g.sample.lat_accel_mps2 = std::sin(i * 0.37);
+    c.Add(g);
+  }
+  return c;
+}
+
+config::AdequacyConfig Cfg() {
+  config::AdequacyConfig c;
+  c.tolerance = 0.01;
+  c.hold_h = 2.0;
+  c.change_window_h = 2.0;
+  c.kl_threshold = 0.01;
+  return c;
+}
+
+// Catches: ADEQUATE claimed before the hold period, or never reached once EG is stable.
+TEST(AdequacyTracker, CollectingThenConvergingThenAdequate) {
+  Tracker t(Cfg());
+  std::vector<State> states;
+  for (int k = 1; k <= 40; ++k) {
+    const double h = 0.25 * k;
+    // EG approaches 0.003 like 1/h; standard error shrinks like 1/sqrt(h).
+    const double eg = 0.003 * (1 + 0.05 / h);
+    const Report r = t.Update(h, eg, 0.003 * 0.02 / std::sqrt(h), SomeCoverage(static_cast<int>(1000 * h)));
+    states.push_back(r.state);
+    if (h < 2.0) EXPECT_EQ(r.state, State::kCollecting) << h;
+    if (r.state == State::kAdequate) {
+      EXPECT_LT(r.rel_change, 0.01);
+      EXPECT_LT(r.rel_se, 0.01);
+      EXPECT_GE(r.hours_under_tolerance, 2.0);
+    }
+  }
+  EXPECT_EQ(states.back(), State::kAdequate);
+  EXPECT_NE(std::find(states.begin(), states.end(), State::kConverging), states.end());
+}
+
+// Catches: a drifting EG (e.g. a mass change) reported as adequate.
+TEST(AdequacyTracker, DriftingEgNeverAdequate) {
+  Tracker t(Cfg());
+  for (int k = 1; k <= 60; ++k) {
+    const double h = 0.25 * k;
+    const Report r = t.Update(h, 0.003 * (1 + 0.01 * h), 1e-6, SomeCoverage(static_cast<int>(1000 * h)));
+    EXPECT_NE(r.state, State::kAdequate) << h;
+  }
+}
+
+TEST(AdequacyTracker, SerializeRoundTripKeepsHistory) {
+  Tracker t(Cfg());
+  for (int k = 1; k <= 12; ++k) t.Update(0.5 * k, 0.003, 1e-6, SomeCoverage(500 * k));
+  Tracker u(Cfg());
+  u.Deserialize(t.Serialize());
+  ASSERT_EQ(u.history().size(), t.history().size());
+  EXPECT_DOUBLE_EQ(u.history().back().eg, 0.003);
+  const Report a = t.Update(6.5, 0.003, 1e-6, SomeCoverage(6500));
+  const Report b = u.Update(6.5, 0.003, 1e-6, SomeCoverage(6500));
+  EXPECT_EQ(a.state, b.state);
+  EXPECT_DOUBLE_EQ(a.hours_under_tolerance, b.hours_under_tolerance);
+  EXPECT_THROW(u.Deserialize("garbage"), Error);
+}
+
+}  // namespace
+}  // namespace ndsid::adequacy

@@ -1,0 +1,108 @@
+#include "ndsid/config/config.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "ndsid/dbc/dbc_parser.h"
+
+namespace ndsid::config {
+namespace {
+
+const char* kMinimal = R"(vehicle: {name: car, wheelbase_m: 2.6, mass_kg: 1500}
+source: {type: log, logs: [a.log]}
+dbc: b.dbc
+signals:
+  steering_wheel_angle: {message: M, signal: S, unit: deg}
+  vehicle_speed: {message: M, signal: V, unit: km/h}
+  lateral_acceleration: {message: M, signal: A, unit: m/s^2, sign: -1}
+)";
+
+std::string ErrorOf(const std::string& yaml) {
+  try {
+    ParseConfig(yaml, "car.yaml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Catches: unit or sign conversion done wrong (a right-positive a_y bus must become left-positive).
+TEST(Config, ConvertsUnitsAndSignToSi) {
+  const Config c = ParseConfig(kMinimal, "dir/car.yaml");
+  EXPECT_NEAR(c.role(Role::kSteeringWheelAngle)->ToSi(180.0), M_PI, 1e-12);
+  EXPECT_NEAR(c.role(Role::kSpeed)->ToSi(36.0), 10.0, 1e-12);
+  EXPECT_DOUBLE_EQ(c.role(Role::kLateralAcceleration)->ToSi(1.5), -1.5);
+  EXPECT_EQ(c.role(Role::kYawRate), nullptr);
+  EXPECT_EQ(c.source.logs.at(0), "dir/a.log");  // relative to the config file
+  EXPECT_EQ(c.dbc, "dir/b.dbc");
+  EXPECT_TRUE(c.identification.params[0].fixed);
+  EXPECT_DOUBLE_EQ(c.identification.params[0].initial, 1500.0);  // m from the data sheet
+}
+
+// Catches: a typo in a key silently ignored (the user thinks a setting is active).
+TEST(Config, RejectsUnknownKeyWithPathAndLine) {
+  const std::string e = ErrorOf(std::string(kMinimal) + "gate: {min_sped_mps: 3}\n");
+  EXPECT_NE(e.find("car.yaml:8"), std::string::npos) << e;
+  EXPECT_NE(e.find("gate.min_sped_mps: unknown key"), std::string::npos) << e;
+}
+
+TEST(Config, RejectsWrongTypeWithPathAndLine) {
+  const std::string e = ErrorOf(std::string(kMinimal) + "gate:\n  min_speed_mps: fast\n");
+  EXPECT_NE(e.find("car.yaml:9"), std::string::npos) << e;
+  EXPECT_NE(e.find("gate.min_speed_mps"), std::string::npos) << e;
+}
+
+TEST(Config, RejectsMissingRequiredRole) {
+  std::string y = kMinimal;
+  y.erase(y.find("  lateral_acceleration"));
+  const std::string e = ErrorOf(y);
+  EXPECT_NE(e.find("signals.lateral_acceleration: missing required role"), std::string::npos) << e;
+}
+
+TEST(Config, RejectsUnknownUnitForRole) {
+  std::string y = kMinimal;
+  y.replace(y.find("unit: km/h"), 10, "unit: furlong/fortnight");
+  const std::string e = ErrorOf(y);
+  EXPECT_NE(e.find("signals.vehicle_speed.unit"), std::string::npos) << e;
+}
+
+TEST(Config, RejectsBrokenYamlWithLocation) {
+  const std::string e = ErrorOf("vehicle: {name: car\nsource: [");
+  EXPECT_NE(e.find("car.yaml:"), std::string::npos) << e;
+  EXPECT_NE(e.find("YAML syntax"), std::string::npos) << e;
+}
+
+TEST(Config, RejectsInitialOutsideBox) {
+  const std::string e =
+      ErrorOf(std::string(kMinimal) + "identification:\n  parameters:\n    is: {min: 14, max: 15, initial: 20}\n");
+  EXPECT_NE(e.find("identification.parameters.is"), std::string::npos) << e;
+}
+
+// Catches: a role mapped to a signal the DBC does not have, found only at the first frame.
+TEST(Config, ValidateAgainstDbcNamesMissingSignalAndLine) {
+  const Config c = ParseConfig(kMinimal, "car.yaml");
+  const dbc::Database db = dbc::ParseDbcText(
+      "VERSION \"\"\nBO_ 100 M: 8 X\n SG_ S : 0|16@1- (0.1,0) [0|0] \"deg\" X\n SG_ V : 16|16@1+ (0.01,0) [0|0] \"km/h\" X\n",
+      "t.dbc");
+  try {
+    ValidateAgainstDbc(c, db);
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("car.yaml:7"), std::string::npos) << m;
+    EXPECT_NE(m.find("signal 'A' not in message 'M'"), std::string::npos) << m;
+  }
+}
+
+// Catches: the shipped example drifting out of sync with the loader or the example DBC.
+TEST(Config, ShippedExampleConfigsLoadAndMatchTheirDbc) {
+  const Config c = LoadConfig(std::string(NDSID_SOURCE_DIR) + "/config/example_vehicle.yaml");
+  ValidateAgainstDbc(c, dbc::ParseDbcFile(c.dbc));
+  EXPECT_NE(c.role(Role::kYawRate), nullptr);
+  EXPECT_EQ(c.validity.size(), 2u);
+}
+
+}  // namespace
+}  // namespace ndsid::config
