@@ -31,6 +31,9 @@ struct Signal {
   std::map<int64_t, std::string> value_table;  // VAL_
   std::string comment;                         // CM_ SG_
   int line = 0;                                // line of the SG_ in the file
+
+  bool is_float() const { return value_type == ValueType::kFloat32 || value_type == ValueType::kFloat64; }
+  bool is_signed() const { return value_type == ValueType::kSigned; }
 };
 
 struct Message {
@@ -41,8 +44,11 @@ struct Message {
   std::string sender;
   std::vector<Signal> signals;
   std::string comment;                   // CM_ BO_
-  std::optional<double> cycle_time_ms;   // BA_ "GenMsgCycleTime"
+  std::optional<double> cycle_time_ms;   // BA_ "GenMsgCycleTime" (cantools rule, see docs/dbc.md)
   int line = 0;
+
+  // The multiplexor signal (MuxRole::kMultiplexor), or nullptr for a plain message.
+  const Signal* Multiplexor() const;
 
   const Signal* FindSignal(std::string_view signal_name) const;
 };
@@ -58,6 +64,7 @@ struct Warning {
 struct Database {
   std::string file;  // path it was loaded from, for messages
   std::string version;
+  std::string comment;  // global CM_ "..." (several are joined with a newline)
   std::vector<std::string> nodes;
   std::vector<Message> messages;
   std::vector<Warning> warnings;
