@@ -29,7 +29,11 @@ void Pipeline::ProcessFrames(std::span<const can::CanFrame> frames, const std::v
 }
 
 void Pipeline::ConsumeSamples() noexcept {
-  for (const sync::Sample& s : samples_) accumulator_.Add(gate_.Process(s));
+  for (const sync::Sample& s : samples_) {
+    const gate::GatedSample g = gate_.Process(s);
+    if (observer_) observer_(g);
+    accumulator_.Add(g);
+  }
   samples_.clear();
 }
 

@@ -1,7 +1,6 @@
 // Segments cut into independently simulated chunks, and the Ceres cost functor over one chunk.
 #pragma once
 
-#include <array>
 #include <vector>
 
 #include "ndsid/identify/identifier.h"
@@ -14,6 +13,11 @@ struct Chunk {
   size_t n;
   double dt_s;
   int64_t drive_id;
+
+  model::InputSeries Inputs() const {
+    constexpr size_t kStride = sizeof(stats::SegmentSample) / sizeof(float);
+    return {&samples[0].steer_rad, &samples[0].speed_mps, kStride, n, dt_s};
+  }
 };
 
 // Long segments are cut into chunks of about chunk_s (the last piece joins its predecessor
@@ -25,21 +29,19 @@ size_t BurnInSamples(const Chunk& c, double burn_in_s);
 // scaled parameters theta (p_i = theta_i * scale_i, so all unknowns are O(1) for the solver).
 class ChunkResidual {
  public:
-  ChunkResidual(const Chunk& chunk, size_t burn_in, double wheelbase_m, const std::array<double, 6>& scale)
-      : chunk_(chunk), burn_in_(burn_in), wheelbase_m_(wheelbase_m), scale_(scale) {}
+  ChunkResidual(const Chunk& chunk, size_t burn_in, double wheelbase_m, const model::ModelSpec& spec,
+                std::vector<double> scale)
+      : chunk_(chunk), burn_in_(burn_in), wheelbase_m_(wheelbase_m), spec_(spec), scale_(std::move(scale)) {}
 
   size_t num_residuals() const { return chunk_.n - burn_in_; }
 
   template <typename T>
   bool operator()(T const* const* theta, T* residuals) const {
-    const T p[6] = {theta[0][0] * scale_[0], theta[0][1] * scale_[1], theta[0][2] * scale_[2],
-                    theta[0][3] * scale_[3], theta[0][4] * scale_[4], theta[0][5] * scale_[5]};
-    const model::Params<T> params = model::Params<T>::FromArray(p);
+    std::vector<T> p(scale_.size());
+    for (size_t i = 0; i < scale_.size(); ++i) p[i] = theta[0][i] * scale_[i];
     std::vector<T> a_y(chunk_.n);
+    model::SimulateModel(spec_, p.data(), wheelbase_m_, chunk_.Inputs(), a_y.data());
     const stats::SegmentSample* s = chunk_.samples;
-    model::SimulateLateralAcceleration(
-        params, wheelbase_m_, chunk_.dt_s, chunk_.n, [s](size_t k) { return static_cast<double>(s[k].steer_rad); },
-        [s](size_t k) { return static_cast<double>(s[k].speed_mps); }, a_y.data());
     for (size_t k = burn_in_; k < chunk_.n; ++k) residuals[k - burn_in_] = T(static_cast<double>(s[k].lat_accel_mps2)) - a_y[k];
     return true;
   }
@@ -48,7 +50,8 @@ class ChunkResidual {
   Chunk chunk_;
   size_t burn_in_;
   double wheelbase_m_;
-  std::array<double, 6> scale_;
+  const model::ModelSpec& spec_;
+  std::vector<double> scale_;
 };
 
 }  // namespace ndsid::identify

@@ -5,8 +5,8 @@
 
 #include <Eigen/Dense>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <sstream>
 
@@ -15,25 +15,23 @@
 namespace ndsid::identify {
 namespace {
 
-using Vec6 = Eigen::Matrix<double, 6, 1>;
-using Mat6 = Eigen::Matrix<double, 6, 6>;
-using CostFn = ceres::DynamicAutoDiffCostFunction<ChunkResidual, 6>;
+using CostFn = ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kJetSize>;
 
-std::unique_ptr<CostFn> MakeCost(const Chunk& c, size_t burn, double l, const std::array<double, 6>& scale) {
-  auto* functor = new ChunkResidual(c, burn, l, scale);
+std::unique_ptr<CostFn> MakeCost(const Chunk& c, size_t burn, double l, const model::ModelSpec& spec,
+                                 const std::vector<double>& scale) {
+  auto* functor = new ChunkResidual(c, burn, l, spec, scale);
   auto cost = std::make_unique<CostFn>(functor);
-  cost->AddParameterBlock(6);
+  cost->AddParameterBlock(static_cast<int>(scale.size()));
   cost->SetNumResiduals(static_cast<int>(functor->num_residuals()));
   return cost;
 }
 
 // Integrated autocorrelation time of the residuals (1 + 2 sum of the autocorrelation up to the
-// first lag where it turns negative), averaged over chunks: the factor by which strongly
+// first lag where it turns negative), pooled over chunks: the factor by which strongly
 // correlated 50 Hz residuals overstate the information in the data.
 double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk) {
-  constexpr size_t kMaxLag = 200;
+  constexpr size_t kMaxLag = 250;
   std::vector<double> acf(kMaxLag + 1, 0.0);
-  double var = 0;
   for (const auto& e : residuals_by_chunk) {
     const size_t n = e.size();
     for (size_t lag = 0; lag <= std::min(kMaxLag, n ? n - 1 : 0); ++lag) {
@@ -42,27 +40,31 @@ double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& res
       acf[lag] += s;
     }
   }
-  var = acf[0];
-  if (var <= 0) return 1.0;
+  if (acf[0] <= 0) return 1.0;
   double tau = 1.0;
   for (size_t lag = 1; lag <= kMaxLag; ++lag) {
-    const double rho = acf[lag] / var;
+    const double rho = acf[lag] / acf[0];
     if (rho <= 0) break;
     tau += 2.0 * rho;
   }
   return tau;
 }
 
-std::string DescribeDirection(const Eigen::VectorXd& v, const std::vector<int>& free) {
+std::string DescribeDirection(const Eigen::VectorXd& v, const std::vector<int>& free, const model::ModelSpec& spec) {
   std::ostringstream os;
   os.precision(2);
   os << std::fixed;
   for (int k = 0; k < v.size(); ++k) {
     if (std::abs(v[k]) < 0.1) continue;
-    os << (v[k] >= 0 ? " +" : " ") << v[k] << ' ' << model::kParamNames[free[k]];
+    os << (v[k] >= 0 ? " +" : " ") << v[k] << ' ' << spec.param_name(free[k]);
   }
   return os.str();
 }
+
+struct Bound {
+  double lower, upper, initial;
+  bool fixed;
+};
 
 }  // namespace
 
@@ -72,8 +74,15 @@ model::Params<double> IdentificationResult::AsParams() const {
   return model::Params<double>::FromArray(p);
 }
 
-Identifier::Identifier(const config::IdentificationConfig& config, double wheelbase_m)
-    : config_(config), wheelbase_m_(wheelbase_m) {}
+std::vector<double> IdentificationResult::AllValues() const {
+  std::vector<double> v;
+  for (const auto& p : params) v.push_back(p.value);
+  for (const auto& p : effect_params) v.push_back(p.value);
+  return v;
+}
+
+Identifier::Identifier(const config::IdentificationConfig& config, double wheelbase_m, model::ModelSpec spec)
+    : config_(config), wheelbase_m_(wheelbase_m), spec_(std::move(spec)) {}
 
 model::Params<double> Identifier::WarmStart(double steer_ratio, double eg) const {
   double p[6];
@@ -89,19 +98,26 @@ model::Params<double> Identifier::WarmStart(double steer_ratio, double eg) const
   return model::Params<double>::FromArray(p);
 }
 
+std::vector<double> Identifier::FullVector(const model::Params<double>& p) const {
+  std::vector<double> v = {p.m, p.Jz, p.cv, p.ch, p.lv, p.is};
+  for (int i = model::kNumParams; i < spec_.num_params(); ++i) v.push_back(spec_.effect_param(i)->initial);
+  return v;
+}
+
 double Identifier::Rmse(const model::Params<double>& p, const SegmentList& segments, size_t* count) const {
+  return Rmse(FullVector(p), segments, count);
+}
+
+double Identifier::Rmse(const std::vector<double>& params, const SegmentList& segments, size_t* count) const {
   const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s);
   double sum = 0;
   size_t n = 0;
   std::vector<double> a_y;
   for (const Chunk& c : chunks) {
     a_y.resize(c.n);
-    const stats::SegmentSample* s = c.samples;
-    model::SimulateLateralAcceleration(
-        p, wheelbase_m_, c.dt_s, c.n, [s](size_t k) { return static_cast<double>(s[k].steer_rad); },
-        [s](size_t k) { return static_cast<double>(s[k].speed_mps); }, a_y.data());
+    model::SimulateModel(spec_, params.data(), wheelbase_m_, c.Inputs(), a_y.data());
     for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
-      const double e = s[k].lat_accel_mps2 - a_y[k];
+      const double e = c.samples[k].lat_accel_mps2 - a_y[k];
       sum += e * e;
       ++n;
     }
@@ -112,25 +128,42 @@ double Identifier::Rmse(const model::Params<double>& p, const SegmentList& segme
 
 IdentificationResult Identifier::Identify(const SegmentList& training, const SegmentList& validation,
                                           const std::optional<model::Params<double>>& warm_start) const {
+  return Identify(training, validation,
+                  warm_start ? std::optional<std::vector<double>>(FullVector(*warm_start)) : std::nullopt);
+}
+
+IdentificationResult Identifier::Identify(const SegmentList& training, const SegmentList& validation,
+                                          const std::optional<std::vector<double>>& warm_start) const {
   IdentificationResult r;
+  r.model = spec_.Describe();
   const auto t_start = std::chrono::steady_clock::now();
+  const int np = spec_.num_params();
   const auto chunks = MakeChunks(training, config_.chunk_s, config_.burn_in_s);
   if (chunks.empty()) {
     r.reason = "no gated segment long enough for the dynamic fit";
     return r;
   }
-  double p0[6];
-  if (warm_start) {
-    const double w[6] = {warm_start->m, warm_start->Jz, warm_start->cv, warm_start->ch, warm_start->lv, warm_start->is};
-    for (int i = 0; i < 6; ++i) p0[i] = std::clamp(w[i], config_.params[i].lower, config_.params[i].upper);
-  } else {
-    for (int i = 0; i < 6; ++i) p0[i] = config_.params[i].initial;
+  // Box, initial values and scaling of every parameter: base from configuration, effects from
+  // the effect library. theta_i = p_i / scale_i keeps every unknown O(1) for the solver.
+  std::vector<Bound> bounds(static_cast<size_t>(np));
+  std::vector<double> scale(static_cast<size_t>(np));
+  for (int i = 0; i < np; ++i) {
+    if (i < model::kNumParams) {
+      const auto& c = config_.params[i];
+      bounds[i] = {c.lower, c.upper, c.initial, c.fixed};
+      scale[i] = c.initial;
+    } else {
+      const model::EffectParam* e = spec_.effect_param(i);
+      bounds[i] = {e->lower, e->upper, e->initial, false};
+      scale[i] = 0.5 * (e->upper - e->lower);
+    }
   }
-  if (config_.params[model::kMass].fixed) p0[model::kMass] = config_.params[model::kMass].initial;
-  std::array<double, 6> scale{};
-  for (int i = 0; i < 6; ++i) scale[i] = config_.params[i].initial;
-  double theta[6];
-  for (int i = 0; i < 6; ++i) theta[i] = p0[i] / scale[i];
+  std::vector<double> theta(static_cast<size_t>(np));
+  for (int i = 0; i < np; ++i) {
+    double v = bounds[i].initial;
+    if (warm_start && i < static_cast<int>(warm_start->size()) && !bounds[i].fixed) v = (*warm_start)[i];
+    theta[i] = std::clamp(v, bounds[i].lower, bounds[i].upper) / scale[i];
+  }
 
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -139,21 +172,21 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
   costs.reserve(chunks.size());
   size_t n_res = 0;
   for (const Chunk& c : chunks) {
-    costs.push_back(MakeCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, scale));
-    problem.AddResidualBlock(costs.back().get(), nullptr, theta);
+    costs.push_back(MakeCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale));
+    problem.AddResidualBlock(costs.back().get(), nullptr, theta.data());
     n_res += static_cast<size_t>(costs.back()->num_residuals());
   }
   std::vector<int> fixed, free;
-  for (int i = 0; i < 6; ++i) {
-    (config_.params[i].fixed ? fixed : free).push_back(i);
-    problem.SetParameterLowerBound(theta, i, config_.params[i].lower / scale[i]);
-    problem.SetParameterUpperBound(theta, i, config_.params[i].upper / scale[i]);
+  for (int i = 0; i < np; ++i) {
+    (bounds[i].fixed ? fixed : free).push_back(i);
+    problem.SetParameterLowerBound(theta.data(), i, bounds[i].lower / scale[i]);
+    problem.SetParameterUpperBound(theta.data(), i, bounds[i].upper / scale[i]);
   }
   if (free.empty()) {
     r.reason = "every parameter is fixed";
     return r;
   }
-  if (!fixed.empty()) problem.SetManifold(theta, new ceres::SubsetManifold(6, fixed));
+  if (!fixed.empty()) problem.SetManifold(theta.data(), new ceres::SubsetManifold(np, fixed));
 
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
@@ -174,21 +207,20 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
 
   // Residuals and Jacobian at the optimum, accumulated per chunk: J'J, the per-chunk scores
   // (cluster-robust covariance) and the residual series (autocorrelation time).
-  Mat6 jtj = Mat6::Zero();
-  std::vector<Vec6> chunk_scores;
+  Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(np, np);
+  std::vector<Eigen::VectorXd> chunk_scores;
   std::vector<std::vector<double>> chunk_residuals;
   double rss = 0;
-  const double* params[] = {theta};
+  const double* params[] = {theta.data()};
   for (const auto& cost : costs) {
     const int m = cost->num_residuals();
     std::vector<double> e(static_cast<size_t>(m));
-    std::vector<double> jac(static_cast<size_t>(m) * 6);
+    std::vector<double> jac(static_cast<size_t>(m) * np);
     double* jacs[] = {jac.data()};
     cost->Evaluate(params, e.data(), jacs);
-    Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>> J(jac.data(), m, 6);
+    Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, np);
     Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
-    // Jacobian of the *model output* is -J; signs cancel in J'J and in the score's outer product.
-    jtj += J.transpose() * J;
+    jtj += J.transpose() * J;  // the model output's Jacobian is -J: signs cancel here and below
     chunk_scores.push_back(J.transpose() * ev);
     rss += ev.squaredNorm();
     chunk_residuals.push_back(std::move(e));
@@ -209,13 +241,16 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
     for (int b = 0; b < nf; ++b) jtj_f(a, b) = jtj(free[a], free[b]);
   const Eigen::MatrixXd jtj_inv = jtj_f.completeOrthogonalDecomposition().pseudoInverse();
   const double sigma2 = rss / std::max<double>(1.0, static_cast<double>(n_res) - nf);
-  // Gradient of EG with respect to theta (free parameters), by forward-mode autodiff.
-  using Jet = ceres::Jet<double, 6>;
-  model::Params<Jet> pj{Jet(theta[0] * scale[0], 0), Jet(theta[1] * scale[1], 1), Jet(theta[2] * scale[2], 2),
-                        Jet(theta[3] * scale[3], 3), Jet(theta[4] * scale[4], 4), Jet(theta[5] * scale[5], 5)};
-  const Jet eg = model::SelfSteerGradient(pj, wheelbase_m_);
-  Eigen::VectorXd eg_grad(nf);
-  for (int a = 0; a < nf; ++a) eg_grad[a] = eg.v[free[a]] * scale[free[a]];
+
+  // Gradient of EG with respect to theta (free base parameters), by forward-mode autodiff.
+  using Jet6 = ceres::Jet<double, 6>;
+  model::Params<Jet6> pj{Jet6(theta[0] * scale[0], 0), Jet6(theta[1] * scale[1], 1), Jet6(theta[2] * scale[2], 2),
+                         Jet6(theta[3] * scale[3], 3), Jet6(theta[4] * scale[4], 4), Jet6(theta[5] * scale[5], 5)};
+  const Jet6 eg = model::SelfSteerGradient(pj, wheelbase_m_);
+  Eigen::VectorXd eg_grad = Eigen::VectorXd::Zero(nf);
+  for (int a = 0; a < nf; ++a) {
+    if (free[a] < model::kNumParams) eg_grad[a] = eg.v[free[a]] * scale[free[a]];
+  }
 
   // Two honest covariances for autocorrelated residuals; the one more cautious about EG wins:
   // the classical one inflated by the residuals' integrated autocorrelation time, and (with
@@ -223,12 +258,12 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
   const double tau = IntegratedAutocorrelationTime(chunk_residuals);
   Eigen::MatrixXd cov = jtj_inv * sigma2 * tau;
   char method[160];
-  std::snprintf(method, sizeof method, "autocorrelation-corrected (tau=%.1f)", tau);
+  std::snprintf(method, sizeof method, "autocorrelation-corrected (tau=%.1f samples)", tau);
   r.se_method = method;
   const size_t g = chunk_scores.size();
   if (g >= 10) {
     Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(nf, nf);
-    for (const Vec6& sc : chunk_scores) {
+    for (const Eigen::VectorXd& sc : chunk_scores) {
       Eigen::VectorXd sf(nf);
       for (int a = 0; a < nf; ++a) sf[a] = sc[free[a]];
       meat += sf * sf.transpose();
@@ -241,20 +276,27 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
   }
 
   // Parameters, standard errors, correlations.
-  for (int i = 0; i < 6; ++i) {
-    ParameterEstimate& pe = r.params[i];
+  auto estimate = [&](int i) {
+    ParameterEstimate pe;
+    pe.name = spec_.param_name(i);
+    pe.unit = spec_.param_unit(i);
     pe.value = theta[i] * scale[i];
-    pe.fixed = config_.params[i].fixed;
-    const double lo = config_.params[i].lower, hi = config_.params[i].upper;
+    pe.fixed = bounds[i].fixed;
+    const double lo = bounds[i].lower, hi = bounds[i].upper;
     pe.at_bound = !pe.fixed && (pe.value <= lo + 1e-6 * (hi - lo) || pe.value >= hi - 1e-6 * (hi - lo));
-  }
-  for (int a = 0; a < nf; ++a) r.params[free[a]].se = std::sqrt(std::max(0.0, cov(a, a))) * scale[free[a]];
-  r.correlation.fill(0.0);
-  for (int i = 0; i < 6; ++i) r.correlation[i * 6 + i] = 1.0;
+    for (int a = 0; a < nf; ++a) {
+      if (free[a] == i) pe.se = std::sqrt(std::max(0.0, cov(a, a))) * scale[i];
+    }
+    return pe;
+  };
+  for (int i = 0; i < model::kNumParams; ++i) r.params[i] = estimate(i);
+  for (int i = model::kNumParams; i < np; ++i) r.effect_params.push_back(estimate(i));
+  r.correlation.assign(static_cast<size_t>(np * np), 0.0);
+  for (int i = 0; i < np; ++i) r.correlation[static_cast<size_t>(i * np + i)] = 1.0;
   for (int a = 0; a < nf; ++a)
     for (int b = 0; b < nf; ++b) {
       const double d = std::sqrt(cov(a, a) * cov(b, b));
-      r.correlation[free[a] * 6 + free[b]] = d > 0 ? cov(a, b) / d : 0.0;
+      r.correlation[static_cast<size_t>(free[a] * np + free[b])] = d > 0 ? cov(a, b) / d : 0.0;
     }
 
   // EG and its standard error by the delta method.
@@ -273,12 +315,12 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
     const double smax = std::sqrt(ev[nf - 1]);
     IdentifiabilityReport& rep = r.identifiability;
     rep.singular_values.fill(0.0);
-    for (int a = 0; a < nf; ++a) rep.singular_values[a] = std::sqrt(ev[nf - 1 - a]);
+    for (int a = 0; a < std::min<int>(nf, model::kNumParams); ++a) rep.singular_values[a] = std::sqrt(ev[nf - 1 - a]);
     rep.condition_number = std::sqrt(ev[0]) > 0 ? smax / std::sqrt(ev[0]) : INFINITY;
     for (int a = 0; a < nf; ++a) {
       const double ratio = smax > 0 ? std::sqrt(ev[a]) / smax : 0.0;
       if (ratio < 1e-3) {
-        rep.weak.push_back({ratio, "not determined by the data:" + DescribeDirection(es.eigenvectors().col(a), free)});
+        rep.weak.push_back({ratio, "not determined by the data:" + DescribeDirection(es.eigenvectors().col(a), free, spec_)});
       }
     }
     if (config_.params[model::kMass].fixed) {
@@ -288,18 +330,16 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
       rep.notes.push_back("m free: scaling m, Jz, cv, ch together leaves a_y unchanged, so m is not determined (expect it in the weak directions); EG is still determined");
     }
     for (int a = 0; a < nf; ++a) {
-      const ParameterEstimate& pe = r.params[free[a]];
+      const ParameterEstimate& pe = free[a] < model::kNumParams ? r.params[free[a]] : r.effect_params[free[a] - model::kNumParams];
       if (pe.value != 0 && pe.se / std::abs(pe.value) > 0.1) {
-        rep.notes.push_back(std::string(model::kParamNames[free[a]]) + " weakly determined (relative standard error " +
+        rep.notes.push_back(pe.name + " weakly determined (relative standard error " +
                             std::to_string(static_cast<int>(100 * pe.se / std::abs(pe.value))) + " %)");
       }
-      if (pe.at_bound) rep.notes.push_back(std::string(model::kParamNames[free[a]]) + " ended on its bound");
+      if (pe.at_bound) rep.notes.push_back(pe.name + " ended on its bound");
     }
   }
 
-  if (!validation.empty()) {
-    r.rmse_validation_mps2 = Rmse(r.AsParams(), validation, &r.residuals_validation);
-  }
+  if (!validation.empty()) r.rmse_validation_mps2 = Rmse(r.AllValues(), validation, &r.residuals_validation);
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);
   if (!r.valid) r.reason = "non-finite EG or standard error";

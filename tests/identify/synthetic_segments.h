@@ -66,3 +66,49 @@ inline std::vector<const stats::Segment*> Pointers(const std::vector<stats::Segm
 }
 
 }  // namespace ndsid::testing
+
+namespace ndsid::testing {
+
+// Like SyntheticSegments, but the truth is the full model `spec` with parameters `truth`
+// (base six then effects), integrated at 1 kHz with the model's own loop and sampled at 50 Hz.
+inline std::vector<stats::Segment> SyntheticSegmentsWithEffects(const model::ModelSpec& spec,
+                                                                const std::vector<double>& truth, int count,
+                                                                double seconds, double noise_mps2, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::vector<stats::Segment> out;
+  constexpr double kFine = 0.001, kDt = 0.02;
+  constexpr int kDecimate = 20;
+  for (int s = 0; s < count; ++s) {
+    double amp[4], freq[4], phase[4];
+    for (int i = 0; i < 4; ++i) {
+      amp[i] = (0.05 + 0.15 * uni(rng)) / (1 + i);
+      freq[i] = 0.05 + 0.55 * uni(rng);
+      phase[i] = 2 * M_PI * uni(rng);
+    }
+    const double v0 = 8 + 27 * uni(rng), dv = 3 * uni(rng), fv = 0.01 + 0.03 * uni(rng);
+    const size_t n_fine = static_cast<size_t>(seconds / kFine);
+    std::vector<float> in(2 * n_fine);
+    for (size_t k = 0; k < n_fine; ++k) {
+      const double t = k * kFine;
+      double d = 0;
+      for (int i = 0; i < 4; ++i) d += amp[i] * std::sin(2 * M_PI * freq[i] * t + phase[i]);
+      in[2 * k] = static_cast<float>(d);
+      in[2 * k + 1] = static_cast<float>(v0 + dv * std::sin(2 * M_PI * fv * t));
+    }
+    std::vector<double> y(n_fine);
+    model::SimulateModel(spec, truth.data(), kWheelbase, model::InputSeries{&in[0], &in[1], 2, n_fine, kFine},
+                         y.data());
+    stats::Segment seg;
+    seg.drive_id = s;
+    seg.dt_s = kDt;
+    for (size_t k = 0; k < n_fine; k += kDecimate) {
+      seg.samples.push_back({in[2 * k], in[2 * k + 1], static_cast<float>(y[k] + noise_mps2 * gauss(rng)), 0.0f, 0.0f});
+    }
+    out.push_back(std::move(seg));
+  }
+  return out;
+}
+
+}  // namespace ndsid::testing

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "ndsid/config/config.h"
+#include "ndsid/model/model_spec.h"
 #include "ndsid/model/single_track.h"
 #include "ndsid/stats/segment.h"
 
@@ -19,6 +20,8 @@ namespace ndsid::identify {
 using SegmentList = std::vector<const stats::Segment*>;
 
 struct ParameterEstimate {
+  std::string name;
+  std::string unit;
   double value = 0;
   double se = 0;          // standard error (0 when fixed)
   bool fixed = false;
@@ -40,12 +43,14 @@ struct IdentifiabilityReport {
 struct IdentificationResult {
   bool valid = false;
   std::string reason;  // why not valid (no data, solver failure, non-finite)
-  std::array<ParameterEstimate, model::kNumParams> params{};
+  std::string model;  // "single-track + steer_offset + ..."
+  std::array<ParameterEstimate, model::kNumParams> params{};  // base: m, Jz, cv, ch, lv, is
+  std::vector<ParameterEstimate> effect_params;              // the effects' parameters, in model order
   double eg_rad_per_mps2 = 0;
   double eg_se_rad_per_mps2 = 0;
   double eg_deg_per_g = 0;
   double eg_se_deg_per_g = 0;
-  std::array<double, model::kNumParams * model::kNumParams> correlation{};  // row-major, free params
+  std::vector<double> correlation;  // row-major over all parameters (base then effects); 0 for fixed ones
   double rmse_train_mps2 = 0;
   double rmse_validation_mps2 = -1;  // -1: no validation data
   size_t residuals_train = 0;
@@ -59,19 +64,28 @@ struct IdentificationResult {
   IdentifiabilityReport identifiability;
 
   model::Params<double> AsParams() const;
+  std::vector<double> AllValues() const;  // base then effect parameters (ModelSpec layout)
 };
 
 class Identifier {
  public:
-  Identifier(const config::IdentificationConfig& config, double wheelbase_m);
+  Identifier(const config::IdentificationConfig& config, double wheelbase_m, model::ModelSpec spec = {});
 
-  // warm_start: initial parameters (e.g. from the steady-state estimate); else config initials.
+  // warm_start: initial values, either the 6 base parameters (effects start at their initial
+  // values) or the full vector; else the configured initial values.
   IdentificationResult Identify(const SegmentList& training, const SegmentList& validation,
-                                const std::optional<model::Params<double>>& warm_start = std::nullopt) const;
+                                const std::optional<std::vector<double>>& warm_start = std::nullopt) const;
+  IdentificationResult Identify(const SegmentList& training, const SegmentList& validation,
+                                const std::optional<model::Params<double>>& warm_start) const;
 
-  // RMSE of the model with parameters p over the segments (burn-in dropped as in the fit);
-  // returns -1 when there are no residuals.
+  // RMSE of the model with parameters (full vector, or base only when the model has no
+  // effects) over the segments, burn-in dropped as in the fit; -1 when there are no residuals.
+  double Rmse(const std::vector<double>& params, const SegmentList& segments, size_t* count = nullptr) const;
   double Rmse(const model::Params<double>& p, const SegmentList& segments, size_t* count = nullptr) const;
+
+  // Full parameter vector: base values from p, effect parameters at their initial values.
+  std::vector<double> FullVector(const model::Params<double>& p) const;
+  const model::ModelSpec& spec() const { return spec_; }
 
   // Parameters from the configured initial values, with is and EG taken from a steady-state
   // estimate (cv adjusted so that EG matches), all clamped to the box.
@@ -83,6 +97,7 @@ class Identifier {
  private:
   config::IdentificationConfig config_;
   double wheelbase_m_;
+  model::ModelSpec spec_;
 };
 
 }  // namespace ndsid::identify

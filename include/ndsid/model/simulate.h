@@ -1,17 +1,19 @@
-// Output-error simulation of the single-track model over one stretch of measured inputs:
-// the one loop the identifier (with Ceres Jets), the comparison tools and the tests share.
+// Output-error simulation of the model over one stretch of measured inputs: the one loop the
+// identifier (with Ceres Jets), the comparison and diagnosis tools and the tests share.
 #pragma once
 
 #include <cstddef>
+#include <vector>
 
+#include "ndsid/model/model_spec.h"
 #include "ndsid/model/single_track.h"
 
 namespace ndsid::model {
 
 // Steady state of the linear model for constant inputs (beta' = r' = 0): the initial state
 // of every simulated stretch, so the burn-in only has to absorb the deviation from it.
-template <typename T>
-State<T> SteadyState(const Params<T>& p, double l, double steer_wheel_rad, double v_mps) {
+template <typename T, typename U>
+State<T> SteadyState(const Params<T>& p, double l, const U& steer_wheel_rad, const U& v_mps) {
   // Linear system A x = -b delta with x = (beta, r):
   //   beta' = -(cv+ch)/(m v) beta + ((ch lh - cv lv)/(m v^2) - 1) r + cv/(m v) delta
   //   r'    = (ch lh - cv lv)/Jz beta - (cv lv^2 + ch lh^2)/(Jz v) r + cv lv/Jz delta
@@ -30,7 +32,7 @@ State<T> SteadyState(const Params<T>& p, double l, double steer_wheel_rad, doubl
 
 // Simulates n samples spaced dt apart, starting from the steady state of the first input, and
 // writes the modelled lateral acceleration at each sample time to a_y_out[0..n).
-// Inputs are read through accessor functors steer(k) [rad] and speed(k) [m/s].
+// Inputs are read through accessor functors steer(k) [rad] and speed(k) [m/s]. Base model only.
 template <typename T, typename SteerFn, typename SpeedFn>
 void SimulateLateralAcceleration(const Params<T>& p, double wheelbase_m, double dt_s, size_t n, SteerFn steer,
                                  SpeedFn speed, T* a_y_out) {
@@ -40,6 +42,78 @@ void SimulateLateralAcceleration(const Params<T>& p, double wheelbase_m, double 
     a_y_out[k] = Rk4Step(p, wheelbase_m, x, steer(k), steer(k + 1), speed(k), speed(k + 1), dt_s);
   }
   a_y_out[n - 1] = LinearDerivative(p, wheelbase_m, x, steer(n - 1), speed(n - 1)).a_y;
+}
+
+// Optional per-sample traces of a simulation (for comparison reports and monitoring).
+struct SimulationTrace {
+  std::vector<double> yaw_rate_radps;
+  std::vector<double> a_y_cg_mps2;  // before measurement effects
+};
+
+// The full model (base + effects). `params` holds the base six then every effect's parameters
+// (ModelSpec layout). Writes the modelled *measured* lateral acceleration to a_meas_out[0..n).
+template <typename T>
+void SimulateModel(const ModelSpec& spec, const T* params, double l, const InputSeries& in, T* a_meas_out,
+                   SimulationTrace* trace = nullptr) {
+  const size_t n = in.n;
+  if (n == 0) return;
+  const Params<T> p = Params<T>::FromArray(params);
+  const auto& effects = spec.effects();
+  const size_t ne = effects.size();
+  std::vector<T> states(static_cast<size_t>(spec.num_states()), T(0.0));
+  auto eta = [&](size_t e) { return params + spec.param_offset(e); };
+  auto st = [&](size_t e) { return states.data() + spec.state_offset(e); };
+
+  auto inputs_at = [&](size_t k) {
+    ModelInputs<T> u{T(in.steer(k)), T(in.speed(k))};
+    for (size_t e = 0; e < ne; ++e) effects[e]->Inputs(eta(e), in, k, u);
+    return u;
+  };
+  auto derivative = [&](const State<T>& x, const ModelInputs<T>& u) {
+    const AxleSlip<T> slip = SlipAngles(p, l, x, u.steer_rad, u.speed_mps);
+    ForceTerms<T> f{p.cv * slip.front, p.ch * slip.rear, T(0.0)};
+    for (size_t e = 0; e < ne; ++e) effects[e]->Forces(eta(e), p, l, slip, x, u, st(e), f);
+    Derivative<T> d = DerivativeFromForces(p, l, x, u.speed_mps, f.force_front_n, f.force_rear_n);
+    d.beta_dot += f.gravity_lat_mps2 / u.speed_mps;
+    return d;
+  };
+  auto measure = [&](const Derivative<T>& d, const State<T>& x, const ModelInputs<T>& u) {
+    T a = d.a_y;
+    const MeasurementContext<T> m{d.a_y, d.r_dot, x.r, u.speed_mps};
+    for (size_t e = 0; e < ne; ++e) a += effects[e]->Measure(eta(e), m, st(e));
+    return a;
+  };
+
+  ModelInputs<T> u0 = inputs_at(0);
+  State<T> x = SteadyState(p, l, u0.steer_rad, u0.speed_mps);
+  {
+    const Derivative<T> d0 = derivative(x, u0);
+    for (size_t e = 0; e < ne; ++e) effects[e]->InitStates(eta(e), p, l, u0, x, d0.a_y, st(e));
+  }
+  if (trace) {
+    trace->yaw_rate_radps.resize(n);
+    trace->a_y_cg_mps2.resize(n);
+  }
+  const T half(0.5 * in.dt_s), full(in.dt_s), sixth(in.dt_s / 6.0);
+  for (size_t k = 0; k < n; ++k) {
+    const Derivative<T> k1 = derivative(x, u0);
+    a_meas_out[k] = measure(k1, x, u0);
+    if (trace) {
+      trace->yaw_rate_radps[k] = ScalarOf(x.r);
+      trace->a_y_cg_mps2[k] = ScalarOf(k1.a_y);
+    }
+    if (k + 1 == n) break;
+    const ModelInputs<T> u1 = inputs_at(k + 1);
+    const ModelInputs<T> um{T(0.5) * (u0.steer_rad + u1.steer_rad), T(0.5) * (u0.speed_mps + u1.speed_mps)};
+    const Derivative<T> k2 = derivative({x.beta + half * k1.beta_dot, x.r + half * k1.r_dot}, um);
+    const Derivative<T> k3 = derivative({x.beta + half * k2.beta_dot, x.r + half * k2.r_dot}, um);
+    const Derivative<T> k4 = derivative({x.beta + full * k3.beta_dot, x.r + full * k3.r_dot}, u1);
+    const State<T> x1{x.beta + sixth * (k1.beta_dot + T(2.0) * k2.beta_dot + T(2.0) * k3.beta_dot + k4.beta_dot),
+                      x.r + sixth * (k1.r_dot + T(2.0) * k2.r_dot + T(2.0) * k3.r_dot + k4.r_dot)};
+    for (size_t e = 0; e < ne; ++e) effects[e]->AdvanceStates(eta(e), p, l, u0, u1, x, x1, k1.a_y, in.dt_s, st(e));
+    x = x1;
+    u0 = u1;
+  }
 }
 
 }  // namespace ndsid::model

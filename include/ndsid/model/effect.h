@@ -1,0 +1,205 @@
+// A physical effect the base single-track model leaves out (physics.md §4), as a model
+// component: named parameters (bounds, initial value, unit) and a term in the inputs, the
+// dynamics or the measurement equation. Written once as templates in a class deriving from
+// EffectImpl<Derived>; the adapter instantiates them for double and for the autodiff Jet, so
+// the simulator of the model, the identifier (Ceres) and the diagnosis all use the same code.
+//
+// The model stage uses Ceres' Jet header only, as the autodiff scalar type; the solver itself
+// stays in the identify stage.
+#pragma once
+
+#include <ceres/jet.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ndsid/model/single_track.h"
+
+namespace ndsid::model {
+
+inline constexpr int kJetSize = 10;  // base 6 + up to 4 effect parameters per autodiff pass
+using Jet = ceres::Jet<double, kJetSize>;
+
+inline double ScalarOf(double v) { return v; }
+template <int N>
+double ScalarOf(const ceres::Jet<double, N>& v) { return v.a; }
+
+struct EffectParam {
+  std::string name;   // unique within the model, e.g. "steer_offset_rad"
+  std::string unit;
+  double lower = 0, upper = 0;
+  double initial = 0;    // start of the fit
+  double neutral = 0;    // value at which the effect vanishes (the base model)
+  double typical = 0;    // a realistic magnitude, for probes and documentation
+};
+
+struct EffectInfo {
+  std::string name;          // key in configuration and on the command line
+  std::string description;   // the equation, in words
+  std::string signature;     // what its absence leaves in the residual
+  std::vector<EffectParam> params;
+  int num_states = 0;        // extra states carried between samples
+};
+
+// Measured inputs of one stretch, read at fractional sample positions (for time shifts).
+struct InputSeries {
+  const float* steer_rad;   // d_sw as measured, element k at steer_rad[k * stride]
+  const float* speed_mps;   // v as measured
+  size_t stride;            // floats between consecutive samples
+  size_t n;
+  double dt_s;
+  double steer(size_t k) const { return steer_rad[k * stride]; }
+  double speed(size_t k) const { return speed_mps[k * stride]; }
+  template <typename T>
+  T Steer(const T& index) const { return Lerp(steer_rad, index); }
+  template <typename T>
+  T Speed(const T& index) const { return Lerp(speed_mps, index); }
+
+ private:
+  template <typename T>
+  T Lerp(const float* x, const T& index) const {
+    double i0 = std::floor(ScalarOf(index));
+    if (i0 < 0) i0 = 0;
+    if (i0 > static_cast<double>(n) - 2) i0 = static_cast<double>(n) - 2;
+    const size_t i = static_cast<size_t>(i0);
+    const T w = index - T(i0);
+    const double a = x[i * stride], b = x[(i + 1) * stride];
+    return T(a) + w * T(b - a);
+  }
+};
+
+// The modelled inputs at sample k after input effects: what the vehicle "really" saw.
+template <typename T>
+struct ModelInputs {
+  T steer_rad;
+  T speed_mps;
+};
+
+// What the dynamics hook may change: axle forces, and an extra lateral acceleration on the
+// body that the accelerometer does not sense (gravity on a banked road).
+template <typename T>
+struct ForceTerms {
+  T force_front_n;
+  T force_rear_n;
+  T gravity_lat_mps2;  // enters beta' only
+};
+
+// The measured lateral acceleration the model predicts = a_y + sum of measurement terms.
+template <typename T>
+struct MeasurementContext {
+  T a_y;        // modelled CG lateral acceleration (tyre forces / m)
+  T yaw_accel;  // r'
+  T yaw_rate;   // r
+  T speed_mps;
+};
+
+class Effect {
+ public:
+  virtual ~Effect() = default;
+  virtual const EffectInfo& info() const = 0;
+
+  // Inputs: sample k of the measured series -> modelled inputs (in place; effects in order).
+  virtual void Inputs(const double* eta, const InputSeries& s, size_t k, ModelInputs<double>& u) const = 0;
+  virtual void Inputs(const Jet* eta, const InputSeries& s, size_t k, ModelInputs<Jet>& u) const = 0;
+  // Dynamics: slips are the linear-model slip angles; effect states are held over the step.
+  virtual void Forces(const double* eta, const Params<double>& p, double l, const AxleSlip<double>& slip,
+                      const State<double>& x, const ModelInputs<double>& u, const double* states,
+                      ForceTerms<double>& f) const = 0;
+  virtual void Forces(const Jet* eta, const Params<Jet>& p, double l, const AxleSlip<Jet>& slip,
+                      const State<Jet>& x, const ModelInputs<Jet>& u, const Jet* states,
+                      ForceTerms<Jet>& f) const = 0;
+  // Measurement: returns the term added to the measured a_y.
+  virtual double Measure(const double* eta, const MeasurementContext<double>& m, const double* states) const = 0;
+  virtual Jet Measure(const Jet* eta, const MeasurementContext<Jet>& m, const Jet* states) const = 0;
+  // States: initialise at the first sample, advance by dt after each step.
+  virtual void InitStates(const double* eta, const Params<double>& p, double l, const ModelInputs<double>& u,
+                          const State<double>& x, double a_y, double* states) const = 0;
+  virtual void InitStates(const Jet* eta, const Params<Jet>& p, double l, const ModelInputs<Jet>& u,
+                          const State<Jet>& x, Jet a_y, Jet* states) const = 0;
+  virtual void AdvanceStates(const double* eta, const Params<double>& p, double l, const ModelInputs<double>& u0,
+                             const ModelInputs<double>& u1, const State<double>& x0, const State<double>& x1,
+                             double a_y0, double dt, double* states) const = 0;
+  virtual void AdvanceStates(const Jet* eta, const Params<Jet>& p, double l, const ModelInputs<Jet>& u0,
+                             const ModelInputs<Jet>& u1, const State<Jet>& x0, const State<Jet>& x1, Jet a_y0,
+                             double dt, Jet* states) const = 0;
+};
+
+// CRTP adapter: Derived implements any of the templates below (the defaults do nothing):
+//   template <class T> void InputsT(const T* eta, const InputSeries&, size_t k, ModelInputs<T>&) const;
+//   template <class T> void ForcesT(const T* eta, const Params<T>&, double l, const AxleSlip<T>&,
+//                                   const State<T>&, const ModelInputs<T>&, const T* states, ForceTerms<T>&) const;
+//   template <class T> T MeasureT(const T* eta, const MeasurementContext<T>&, const T* states) const;
+//   template <class T> void InitStatesT(...), AdvanceStatesT(...)
+template <class Derived>
+class EffectImpl : public Effect {
+ public:
+  const EffectInfo& info() const override { return info_; }
+
+  void Inputs(const double* e, const InputSeries& s, size_t k, ModelInputs<double>& u) const override {
+    self().InputsT(e, s, k, u);
+  }
+  void Inputs(const Jet* e, const InputSeries& s, size_t k, ModelInputs<Jet>& u) const override {
+    self().InputsT(e, s, k, u);
+  }
+  void Forces(const double* e, const Params<double>& p, double l, const AxleSlip<double>& sl, const State<double>& x,
+              const ModelInputs<double>& u, const double* st, ForceTerms<double>& f) const override {
+    self().ForcesT(e, p, l, sl, x, u, st, f);
+  }
+  void Forces(const Jet* e, const Params<Jet>& p, double l, const AxleSlip<Jet>& sl, const State<Jet>& x,
+              const ModelInputs<Jet>& u, const Jet* st, ForceTerms<Jet>& f) const override {
+    self().ForcesT(e, p, l, sl, x, u, st, f);
+  }
+  double Measure(const double* e, const MeasurementContext<double>& m, const double* st) const override {
+    return self().MeasureT(e, m, st);
+  }
+  Jet Measure(const Jet* e, const MeasurementContext<Jet>& m, const Jet* st) const override {
+    return self().MeasureT(e, m, st);
+  }
+  void InitStates(const double* e, const Params<double>& p, double l, const ModelInputs<double>& u,
+                  const State<double>& x, double a_y, double* st) const override {
+    self().InitStatesT(e, p, l, u, x, a_y, st);
+  }
+  void InitStates(const Jet* e, const Params<Jet>& p, double l, const ModelInputs<Jet>& u, const State<Jet>& x,
+                  Jet a_y, Jet* st) const override {
+    self().InitStatesT(e, p, l, u, x, a_y, st);
+  }
+  void AdvanceStates(const double* e, const Params<double>& p, double l, const ModelInputs<double>& u0,
+                     const ModelInputs<double>& u1, const State<double>& x0, const State<double>& x1, double a_y0,
+                     double dt, double* st) const override {
+    self().AdvanceStatesT(e, p, l, u0, u1, x0, x1, a_y0, dt, st);
+  }
+  void AdvanceStates(const Jet* e, const Params<Jet>& p, double l, const ModelInputs<Jet>& u0,
+                     const ModelInputs<Jet>& u1, const State<Jet>& x0, const State<Jet>& x1, Jet a_y0, double dt,
+                     Jet* st) const override {
+    self().AdvanceStatesT(e, p, l, u0, u1, x0, x1, a_y0, dt, st);
+  }
+
+  // Defaults: no term.
+  template <class T>
+  void InputsT(const T*, const InputSeries&, size_t, ModelInputs<T>&) const {}
+  template <class T>
+  void ForcesT(const T*, const Params<T>&, double, const AxleSlip<T>&, const State<T>&, const ModelInputs<T>&,
+               const T*, ForceTerms<T>&) const {}
+  template <class T>
+  T MeasureT(const T*, const MeasurementContext<T>&, const T*) const { return T(0.0); }
+  template <class T>
+  void InitStatesT(const T*, const Params<T>&, double, const ModelInputs<T>&, const State<T>&, T, T*) const {}
+  template <class T>
+  void AdvanceStatesT(const T*, const Params<T>&, double, const ModelInputs<T>&, const ModelInputs<T>&,
+                      const State<T>&, const State<T>&, T, double, T*) const {}
+
+ protected:
+  explicit EffectImpl(EffectInfo info) : info_(std::move(info)) {}
+
+ private:
+  const Derived& self() const { return static_cast<const Derived&>(*this); }
+  EffectInfo info_;
+};
+
+// All built-in effects (src/model/effects/; registration in builtin_effects.cc).
+std::vector<std::string> BuiltinEffectNames();
+// Throws ndsid::ConfigError naming the effect and listing the known ones.
+std::shared_ptr<const Effect> MakeEffect(const std::string& name);
+
+}  // namespace ndsid::model

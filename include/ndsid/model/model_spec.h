@@ -1,0 +1,42 @@
+// A model = the base single-track model + a list of effects, chosen in the YAML configuration
+// (model: {effects: [steer_offset, roll]}) or on the command line. The daemon and every CLI
+// command build it here, so they all use the same model definition.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ndsid/model/effect.h"
+
+namespace ndsid::model {
+
+class ModelSpec {
+ public:
+  ModelSpec() = default;
+  // Throws ConfigError for an unknown or repeated effect name. Effects are applied in the
+  // library's order (inputs -> tyres -> measurement), whatever the order of `names`.
+  static ModelSpec FromNames(const std::vector<std::string>& names);
+
+  const std::vector<std::shared_ptr<const Effect>>& effects() const { return effects_; }
+  std::vector<std::string> effect_names() const;
+  int num_params() const { return kNumParams + num_effect_params_; }  // base 6 + effects
+  int num_effect_params() const { return num_effect_params_; }
+  int num_states() const { return num_states_; }
+  // Offsets of each effect's parameters / states in the full vectors.
+  int param_offset(size_t effect) const { return param_offsets_[effect]; }
+  int state_offset(size_t effect) const { return state_offsets_[effect]; }
+  // Name and unit of parameter i of the full vector (base parameters first).
+  std::string param_name(int i) const;
+  std::string param_unit(int i) const;
+  const EffectParam* effect_param(int i) const;  // nullptr for base parameters
+  std::string Describe() const;  // "single-track + steer_offset + roll"
+
+ private:
+  std::vector<std::shared_ptr<const Effect>> effects_;
+  std::vector<int> param_offsets_, state_offsets_;
+  int num_effect_params_ = 0;
+  int num_states_ = 0;
+};
+
+}  // namespace ndsid::model

@@ -1,0 +1,48 @@
+// The registry of built-in effects. The table's order is the order effects are applied in:
+// inputs, then dynamics (slip lag before tyre saturation), then measurement terms.
+#include "builtin_effects.h"
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ndsid/common/error.h"
+
+namespace ndsid::model {
+namespace {
+
+using Factory = std::shared_ptr<const Effect> (*)();
+const std::vector<std::pair<std::string, Factory>>& Table() {
+  static const std::vector<std::pair<std::string, Factory>> table = {
+      {"steer_offset", MakeSteerOffset},       // inputs
+      {"steer_delay", MakeSteerDelay},
+      {"speed_scale", MakeSpeedScale},
+      {"crossfall", MakeCrossfall},            // dynamics
+      {"superelevation", MakeSuperelevation},
+      {"relaxation", MakeRelaxation},
+      {"tyre_saturation", MakeTyreSaturation},
+      {"accel_bias", MakeAccelBias},           // measurement
+      {"lever_arm", MakeLeverArm},
+      {"roll", MakeRoll},
+  };
+  return table;
+}
+
+}  // namespace
+
+std::vector<std::string> BuiltinEffectNames() {
+  std::vector<std::string> names;
+  for (const auto& [name, f] : Table()) names.push_back(name);
+  return names;
+}
+
+std::shared_ptr<const Effect> MakeEffect(const std::string& name) {
+  for (const auto& [n, f] : Table()) {
+    if (n == name) return f();
+  }
+  std::string known;
+  for (const auto& [n, f] : Table()) known += (known.empty() ? "" : ", ") + n;
+  throw ConfigError("unknown effect '" + name + "'; known effects: " + known);
+}
+
+}  // namespace ndsid::model

@@ -1,0 +1,22 @@
+// Factories of the built-in effects. To add one: write its .cc beside these (see
+// docs/adding-an-effect.md) and add one line to the table in builtin_effects.cc.
+#pragma once
+
+#include <memory>
+
+#include "ndsid/model/effect.h"
+
+namespace ndsid::model {
+
+std::shared_ptr<const Effect> MakeSteerOffset();
+std::shared_ptr<const Effect> MakeSteerDelay();
+std::shared_ptr<const Effect> MakeSpeedScale();
+std::shared_ptr<const Effect> MakeCrossfall();
+std::shared_ptr<const Effect> MakeSuperelevation();
+std::shared_ptr<const Effect> MakeRelaxation();
+std::shared_ptr<const Effect> MakeTyreSaturation();
+std::shared_ptr<const Effect> MakeAccelBias();
+std::shared_ptr<const Effect> MakeLeverArm();
+std::shared_ptr<const Effect> MakeRoll();
+
+}  // namespace ndsid::model

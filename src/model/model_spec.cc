@@ -1,0 +1,68 @@
+#include "ndsid/model/model_spec.h"
+
+#include <algorithm>
+
+#include "ndsid/common/error.h"
+
+namespace ndsid::model {
+
+ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names) {
+  const std::vector<std::string> order = BuiltinEffectNames();
+  for (size_t i = 0; i < names.size(); ++i) {
+    if (std::find(names.begin(), names.begin() + static_cast<long>(i), names[i]) != names.begin() + static_cast<long>(i)) {
+      throw ConfigError("effect '" + names[i] + "' listed twice");
+    }
+  }
+  std::vector<std::string> sorted = names;
+  std::stable_sort(sorted.begin(), sorted.end(), [&](const std::string& a, const std::string& b) {
+    return std::find(order.begin(), order.end(), a) < std::find(order.begin(), order.end(), b);
+  });
+  ModelSpec spec;
+  int p = kNumParams, s = 0;
+  for (const std::string& name : sorted) {
+    auto effect = MakeEffect(name);
+    spec.param_offsets_.push_back(p);
+    spec.state_offsets_.push_back(s);
+    p += static_cast<int>(effect->info().params.size());
+    s += effect->info().num_states;
+    spec.effects_.push_back(std::move(effect));
+  }
+  spec.num_effect_params_ = p - kNumParams;
+  spec.num_states_ = s;
+  return spec;
+}
+
+std::vector<std::string> ModelSpec::effect_names() const {
+  std::vector<std::string> out;
+  for (const auto& e : effects_) out.push_back(e->info().name);
+  return out;
+}
+
+const EffectParam* ModelSpec::effect_param(int i) const {
+  for (size_t e = 0; e < effects_.size(); ++e) {
+    const int off = param_offsets_[e];
+    const auto& params = effects_[e]->info().params;
+    if (i >= off && i < off + static_cast<int>(params.size())) return &params[static_cast<size_t>(i - off)];
+  }
+  return nullptr;
+}
+
+std::string ModelSpec::param_name(int i) const {
+  if (i < kNumParams) return kParamNames[i];
+  const EffectParam* p = effect_param(i);
+  return p ? p->name : "?";
+}
+
+std::string ModelSpec::param_unit(int i) const {
+  if (i < kNumParams) return kParamUnits[i];
+  const EffectParam* p = effect_param(i);
+  return p ? p->unit : "?";
+}
+
+std::string ModelSpec::Describe() const {
+  std::string d = "single-track";
+  for (const auto& e : effects_) d += " + " + e->info().name;
+  return d;
+}
+
+}  // namespace ndsid::model

@@ -1,0 +1,143 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "ndsid/common/error.h"
+#include "ndsid/model/model_spec.h"
+#include "ndsid/model/simulate.h"
+
+namespace ndsid::model {
+namespace {
+
+constexpr double kL = 2.648;
+const std::vector<double> kBase = {1900, 2700, 75000, 120000, 1.15, 14.8};
+
+// A 20 s stretch at 50 Hz: sinusoidal steering (0.4 Hz, 30 deg) at 15 -> 25 m/s.
+struct Stretch {
+  std::vector<float> data;  // interleaved steer, speed
+  size_t n = 1000;
+  double dt = 0.02;
+  Stretch() {
+    data.resize(2 * n);
+    for (size_t k = 0; k < n; ++k) {
+      data[2 * k] = static_cast<float>(0.5 * std::sin(2 * M_PI * 0.4 * k * dt));
+      data[2 * k + 1] = static_cast<float>(15.0 + 10.0 * k / n);
+    }
+  }
+  InputSeries series() const { return {&data[0], &data[1], 2, n, dt}; }
+};
+
+std::vector<double> Simulate(const ModelSpec& spec, const std::vector<double>& p, const Stretch& s,
+                             SimulationTrace* trace = nullptr) {
+  std::vector<double> out(s.n);
+  SimulateModel(spec, p.data(), kL, s.series(), out.data(), trace);
+  return out;
+}
+
+std::vector<double> With(std::vector<double> base, double eta) {
+  base.push_back(eta);
+  return base;
+}
+
+// Catches: an effect that changes the model at its neutral value (the base model must nest).
+TEST(Effects, EveryEffectVanishesAtItsNeutralValue) {
+  const Stretch s;
+  const auto base = Simulate(ModelSpec{}, kBase, s);
+  for (const std::string& name : BuiltinEffectNames()) {
+    const ModelSpec spec = ModelSpec::FromNames({name});
+    const auto y = Simulate(spec, With(kBase, spec.effect_param(6)->neutral), s);
+    // Relaxation's neutral value is its lower bound, 1 mm (tau = 50 us): nearly, not exactly, zero.
+    const double tol = name == "relaxation" ? 1e-3 : 1e-9;
+    for (size_t k = 0; k < s.n; k += 7) ASSERT_NEAR(y[k], base[k], tol) << name << " at " << k;
+  }
+}
+
+// Catches: a measurement term that does not follow its equation sample by sample.
+TEST(Effects, MeasurementTermsFollowTheirEquations) {
+  const Stretch s;
+  SimulationTrace trace;
+  const auto base = Simulate(ModelSpec{}, kBase, s, &trace);
+  const auto bias = Simulate(ModelSpec::FromNames({"accel_bias"}), With(kBase, 0.1), s);
+  const auto lever = Simulate(ModelSpec::FromNames({"lever_arm"}), With(kBase, 0.8), s);
+  for (size_t k = 1; k + 1 < s.n; ++k) {
+    EXPECT_NEAR(bias[k] - base[k], 0.1, 1e-9);
+    // r' by central difference of the traced yaw rate.
+    const double r_dot = (trace.yaw_rate_radps[k + 1] - trace.yaw_rate_radps[k - 1]) / (2 * s.dt);
+    EXPECT_NEAR(lever[k] - base[k], 0.8 * r_dot, 2e-3);
+  }
+}
+
+// Catches: the steering offset applied with the wrong sign (d_sw,true = d_sw,meas - d0).
+TEST(Effects, SteerOffsetEqualsShiftedInput) {
+  Stretch s, shifted;
+  for (size_t k = 0; k < s.n; ++k) shifted.data[2 * k] = static_cast<float>(s.data[2 * k] - 0.02);
+  const auto a = Simulate(ModelSpec::FromNames({"steer_offset"}), With(kBase, 0.02), s);
+  const auto b = Simulate(ModelSpec{}, kBase, shifted);
+  for (size_t k = 0; k < s.n; ++k) EXPECT_NEAR(a[k], b[k], 1e-6);
+}
+
+// Catches: a time skew shifting the wrong way (steering measured late -> use a later sample).
+TEST(Effects, SteerDelayOfWholeSamplesEqualsShiftedInput) {
+  Stretch s, shifted;
+  for (size_t k = 0; k + 3 < s.n; ++k) shifted.data[2 * k] = s.data[2 * (k + 3)];
+  const auto a = Simulate(ModelSpec::FromNames({"steer_delay"}), With(kBase, 3 * s.dt), s);
+  const auto b = Simulate(ModelSpec{}, kBase, shifted);
+  for (size_t k = 0; k + 3 < s.n; ++k) EXPECT_NEAR(a[k], b[k], 1e-6) << k;
+}
+
+// Catches: roll gain not reaching g*k_phi*a_y in steady cornering.
+TEST(Effects, RollReachesSteadyGainInConstantCorner) {
+  Stretch s;
+  for (size_t k = 0; k < s.n; ++k) {
+    s.data[2 * k] = 0.3f;
+    s.data[2 * k + 1] = 20.0f;
+  }
+  const double k_phi = 0.0089;  // 5 deg/g
+  const auto base = Simulate(ModelSpec{}, kBase, s);
+  const auto roll = Simulate(ModelSpec::FromNames({"roll"}), With(kBase, k_phi), s);
+  EXPECT_NEAR(roll.back() - base.back(), 9.81 * k_phi * base.back(), 1e-6);
+}
+
+// Catches: autodiff derivatives that disagree with the equations (every effect, every input):
+// the Jacobian that drives Ceres and the diagnosis must match central differences.
+TEST(Effects, AutodiffMatchesNumericDerivatives) {
+  const Stretch s;
+  for (const std::string& name : BuiltinEffectNames()) {
+    const ModelSpec spec = ModelSpec::FromNames({name});
+    const EffectParam* ep = spec.effect_param(6);
+    // Off the sample grid (1.07 x typical): the time shift's interpolation has kinks at whole samples.
+    std::vector<double> p = With(kBase, 1.07 * ep->typical);
+    std::vector<Jet> pj(p.size());
+    for (size_t i = 0; i < p.size(); ++i) pj[i] = Jet(p[i], static_cast<int>(i));
+    std::vector<Jet> yj(s.n);
+    SimulateModel(spec, pj.data(), kL, s.series(), yj.data());
+    for (int i : {2, 5, 6}) {  // cv, is, the effect's parameter
+      const double h = 1e-6 * std::max(1.0, std::abs(p[static_cast<size_t>(i)]));
+      auto pp = p, pm = p;
+      pp[static_cast<size_t>(i)] += h;
+      pm[static_cast<size_t>(i)] -= h;
+      const auto yp = Simulate(spec, pp, s), ym = Simulate(spec, pm, s);
+      double max_err = 0, max_ref = 0;
+      for (size_t k = 50; k < s.n; k += 5) {
+        const double num = (yp[k] - ym[k]) / (2 * h);
+        max_err = std::max(max_err, std::abs(num - yj[k].v[i]));
+        max_ref = std::max(max_ref, std::abs(num));
+      }
+      EXPECT_LE(max_err, 1e-4 * max_ref + 1e-9) << name << " d/d" << spec.param_name(i);
+    }
+  }
+}
+
+TEST(ModelSpec, OrdersEffectsAndRejectsUnknownOrRepeated) {
+  const ModelSpec spec = ModelSpec::FromNames({"roll", "steer_offset"});
+  EXPECT_EQ(spec.effect_names(), (std::vector<std::string>{"steer_offset", "roll"}));
+  EXPECT_EQ(spec.num_params(), 8);
+  EXPECT_EQ(spec.param_name(6), "steer_offset_rad");
+  EXPECT_EQ(spec.Describe(), "single-track + steer_offset + roll");
+  EXPECT_THROW(ModelSpec::FromNames({"warp_drive"}), ConfigError);
+  EXPECT_THROW(ModelSpec::FromNames({"roll", "roll"}), ConfigError);
+}
+
+}  // namespace
+}  // namespace ndsid::model
