@@ -1,0 +1,271 @@
+#include "ndsid/sim/candump_writer.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+#include "ndsid/can/candump_reader.h"
+#include "ndsid/common/error.h"
+#include "ndsid/dbc/encoder.h"
+#include "ndsid/sim/random.h"
+
+namespace ndsid::sim {
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr double kMpsToKph = 3.6;
+constexpr int64_t kTick_us = 10000;  // 100 Hz sample grid = the fastest cycle
+
+// What a signal carries, resolved once by name.
+enum class Quantity {
+  kZero, kSteerAngle, kSteerRate, kValid, kLatAccel, kLongAccel, kYawRate, kEsp, kWheelFL, kWheelFR, kWheelRL,
+  kWheelRR, kSpeed, kBrake, kEngineSpeed, kEngineTorque, kPedal, kGear, kReverse, kOdometer, kAmbient,
+  kBatteryVoltage, kBatteryCurrent, kCabinTemp, kFan, kAc, kCounter, kChecksum, kMultiplexor
+};
+
+Quantity QuantityFor(const std::string& name) {
+  static const std::map<std::string, Quantity> table = {
+      {"SteeringWheelAngle", Quantity::kSteerAngle}, {"SteeringWheelRate", Quantity::kSteerRate},
+      {"SteeringAngleValid", Quantity::kValid},      {"DynamicsValid", Quantity::kValid},
+      {"LateralAcceleration", Quantity::kLatAccel},  {"LongitudinalAcceleration", Quantity::kLongAccel},
+      {"YawRate", Quantity::kYawRate},               {"EspIntervention", Quantity::kEsp},
+      {"WheelSpeedFL", Quantity::kWheelFL},          {"WheelSpeedFR", Quantity::kWheelFR},
+      {"WheelSpeedRL", Quantity::kWheelRL},          {"WheelSpeedRR", Quantity::kWheelRR},
+      {"VehicleSpeed", Quantity::kSpeed},            {"BrakeSwitch", Quantity::kBrake},
+      {"EngineSpeed", Quantity::kEngineSpeed},       {"EngineTorque", Quantity::kEngineTorque},
+      {"AcceleratorPedal", Quantity::kPedal},        {"GearPosition", Quantity::kGear},
+      {"ReverseGear", Quantity::kReverse},           {"Odometer", Quantity::kOdometer},
+      {"AmbientTemperature", Quantity::kAmbient},    {"BatteryVoltage", Quantity::kBatteryVoltage},
+      {"BatteryCurrent", Quantity::kBatteryCurrent}, {"CabinTemperature", Quantity::kCabinTemp},
+      {"FanLevel", Quantity::kFan},                  {"AcCompressorOn", Quantity::kAc},
+  };
+  const auto it = table.find(name);
+  if (it != table.end()) return it->second;
+  if (name.size() >= 7 && name.compare(name.size() - 7, 7, "Counter") == 0) return Quantity::kCounter;
+  if (name.size() >= 8 && name.compare(name.size() - 8, 8, "Checksum") == 0) return Quantity::kChecksum;
+  return Quantity::kZero;
+}
+
+struct SignalPlan {
+  const dbc::Signal* signal;
+  Quantity quantity;
+};
+
+struct MessagePlan {
+  const dbc::Message* message;
+  int64_t cycle_ticks;   // cycle in 10 ms ticks
+  int64_t tick_offset;   // which tick of the cycle it is sent in
+  int64_t phase_us;      // offset inside the 10 ms tick
+  std::vector<SignalPlan> signals;
+  std::vector<uint64_t> pages;  // multiplexor values, in turn
+  uint64_t counter = 0;
+};
+
+}  // namespace
+
+struct FrameEncoder::Impl {
+  const dbc::Database& db;
+  const config::SimulationConfig& cfg;
+  std::vector<MessagePlan> plans;
+};
+
+FrameEncoder::FrameEncoder(const dbc::Database& db, const config::SimulationConfig& cfg)
+    : impl_(std::make_unique<Impl>(Impl{db, cfg, {}})) {
+  Rng rng(MixSeed(cfg.seed, 7));
+  // Distinct phases inside the 10 ms tick, >= 0.4 ms apart, so jitter (< 0.15 ms) never reorders.
+  std::vector<int64_t> slots;
+  for (int64_t p = 300; p <= 9500; p += 400) slots.push_back(p);
+  for (size_t i = slots.size(); i > 1; --i) std::swap(slots[i - 1], slots[static_cast<size_t>(rng.Index(static_cast<int>(i)))]);
+  size_t slot = 0;
+  for (const auto& m : db.messages) {
+    if (!m.cycle_time_ms || *m.cycle_time_ms <= 0.0) continue;
+    MessagePlan plan{&m, std::max<int64_t>(1, std::llround(*m.cycle_time_ms / 10.0)), 0, 0, {}, {}, 0};
+    plan.tick_offset = rng.Index(static_cast<int>(plan.cycle_ticks));
+    plan.phase_us = slots[slot++ % slots.size()];
+    for (const auto& s : m.signals) {
+      plan.signals.push_back({&s, s.mux_role == dbc::MuxRole::kMultiplexor ? Quantity::kMultiplexor : QuantityFor(s.name)});
+      if (s.mux_role == dbc::MuxRole::kMultiplexed &&
+          std::find(plan.pages.begin(), plan.pages.end(), s.mux_value) == plan.pages.end())
+        plan.pages.push_back(s.mux_value);
+    }
+    std::sort(plan.pages.begin(), plan.pages.end());
+    impl_->plans.push_back(std::move(plan));
+  }
+  if (impl_->plans.empty())
+    throw ConfigError(db.file + ": no message has a GenMsgCycleTime; the simulator has nothing to send");
+}
+
+FrameEncoder::~FrameEncoder() = default;
+
+std::vector<FrameEncoder::MessageInfo> FrameEncoder::messages() const {
+  std::vector<MessageInfo> out;
+  for (const auto& p : impl_->plans)
+    out.push_back({p.message->name, static_cast<double>(p.cycle_ticks) * 10.0, p.tick_offset * kTick_us + p.phase_us});
+  return out;
+}
+
+std::vector<can::CanFrame> FrameEncoder::EncodeDrive(const DriveResult& drive) {
+  std::vector<can::CanFrame> frames;
+  EncodeDrive(drive, [&](const can::CanFrame& f) { frames.push_back(f); });
+  return frames;
+}
+
+void FrameEncoder::EncodeDriveImpl(const DriveResult& drive, void (*emit)(void*, const can::CanFrame&), void* ctx) {
+  const DriveSeries& s = drive.series;
+  const size_t n = s.size();
+  Rng jitter(MixSeed(impl_->cfg.seed, 50000 + static_cast<uint64_t>(drive.index)));
+  const int64_t start_us = drive.start_epoch_ns / 1000;
+  double odometer_km = drive.odometer_start_km;
+  const double mass = drive.params.m;
+  struct Pending {
+    int64_t ts_us;
+    MessagePlan* plan;
+  };
+  std::vector<Pending> due;
+  for (auto& p : impl_->plans) p.counter = 0;  // ECUs start their counters at key-on
+  for (size_t i = 0; i < n; ++i) {  // tick i = sample i (100 Hz)
+    odometer_km += s.speed_meas_mps[i] / kOutputRate_hz / 1000.0;
+    due.clear();
+    for (auto& p : impl_->plans) {
+      if ((static_cast<int64_t>(i) - p.tick_offset) % p.cycle_ticks != 0 || static_cast<int64_t>(i) < p.tick_offset) continue;
+      const double j = std::clamp(jitter.Normal(0.0, 50.0), -150.0, 150.0);
+      due.push_back({start_us + static_cast<int64_t>(i) * kTick_us + p.phase_us + std::llround(j), &p});
+    }
+    std::sort(due.begin(), due.end(), [](const Pending& a, const Pending& b) { return a.ts_us < b.ts_us; });
+    const double t = s.t_s[i];
+    const double v = std::fabs(s.speed_mps[i]);
+    const bool valid = s.valid[i] != 0;
+    for (const Pending& d : due) {
+      MessagePlan& p = *d.plan;
+      can::CanFrame f;
+      f.timestamp_ns = d.ts_us * 1000;
+      f.id = p.message->id;
+      f.flags = p.message->extended ? can::kFlagExtended : 0;
+      f.len = static_cast<uint8_t>(std::min<uint32_t>(p.message->length, 8));
+      std::span<uint8_t> payload(f.data.data(), f.len);
+      const uint64_t page = p.pages.empty() ? 0 : p.pages[p.counter % p.pages.size()];
+      const dbc::Signal* checksum = nullptr;
+      for (const SignalPlan& sp : p.signals) {
+        const dbc::Signal& sig = *sp.signal;
+        if (sig.mux_role == dbc::MuxRole::kMultiplexed && sig.mux_value != page) continue;
+        double x = 0.0;
+        switch (sp.quantity) {
+          case Quantity::kZero: x = std::clamp(0.0, sig.minimum, std::max(sig.minimum, sig.maximum)); break;
+          case Quantity::kMultiplexor: x = static_cast<double>(page); break;
+          case Quantity::kSteerAngle: x = valid ? s.steer_sw_meas_rad[i] * kRadToDeg : 0.0; break;
+          case Quantity::kSteerRate: x = valid ? s.steer_rate_meas_radps[i] * kRadToDeg : 0.0; break;
+          case Quantity::kValid: x = valid ? 1 : 0; break;
+          case Quantity::kLatAccel: x = valid ? s.a_y_meas_mps2[i] : 0.0; break;
+          case Quantity::kLongAccel: x = valid ? s.a_x_meas_mps2[i] : 0.0; break;
+          case Quantity::kYawRate: x = valid ? s.yaw_rate_meas_radps[i] * kRadToDeg : 0.0; break;
+          case Quantity::kEsp: x = s.esp_active[i]; break;
+          case Quantity::kWheelFL: x = s.wheel_speed_meas_mps[0][i] * kMpsToKph; break;
+          case Quantity::kWheelFR: x = s.wheel_speed_meas_mps[1][i] * kMpsToKph; break;
+          case Quantity::kWheelRL: x = s.wheel_speed_meas_mps[2][i] * kMpsToKph; break;
+          case Quantity::kWheelRR: x = s.wheel_speed_meas_mps[3][i] * kMpsToKph; break;
+          case Quantity::kSpeed: x = s.speed_meas_mps[i] * kMpsToKph; break;
+          case Quantity::kBrake: x = s.brake[i]; break;
+          case Quantity::kEngineSpeed: x = 750.0 + 60.0 * v + 300.0 * std::max(0.0, s.a_x_mps2[i]); break;
+          case Quantity::kEngineTorque:  // drive force (inertia + rolling + aero) at the wheel / overall ratio
+            x = mass * (s.a_x_mps2[i] + 0.1 + 0.0004 * v * v) * 0.31 / 3.5;
+            break;
+          case Quantity::kPedal:
+            x = std::clamp(mass * (s.a_x_mps2[i] + 0.1 + 0.0004 * v * v) * 0.31 / 3.5 / 2.5, 0.0, 100.0);
+            break;
+          case Quantity::kGear: x = s.gear[i]; break;
+          case Quantity::kReverse: x = s.gear[i] == 1 ? 1 : 0; break;
+          case Quantity::kOdometer: x = odometer_km; break;
+          case Quantity::kAmbient: x = drive.ambient_temp_c; break;
+          case Quantity::kBatteryVoltage: x = t < 1.5 ? 12.4 : 14.2 + 0.1 * std::sin(t / 30.0); break;
+          case Quantity::kBatteryCurrent: x = t < 1.5 ? -40.0 : 8.0 + 4.0 * std::sin(t / 17.0); break;
+          case Quantity::kCabinTemp:
+            x = 21.0 + (drive.ambient_temp_c - 21.0) * std::exp(-t / 600.0);
+            break;
+          case Quantity::kFan: x = t < 600.0 ? 4 : 2; break;
+          case Quantity::kAc: x = drive.ambient_temp_c > 18.0 ? 1 : 0; break;
+          case Quantity::kCounter:
+            x = static_cast<double>(p.counter % (sig.length >= 64 ? ~0ull : (1ull << sig.length)));
+            break;
+          case Quantity::kChecksum: checksum = &sig; continue;
+        }
+        dbc::EncodeSignal(sig, x, payload);
+      }
+      if (checksum) {  // XOR of bytes 0..6 (the checksum byte itself is 7)
+        uint8_t c = 0;
+        for (size_t b = 0; b + 1 < f.len; ++b) c ^= f.data[b];
+        dbc::EncodeSignal(*checksum, c, payload);
+      }
+      ++p.counter;
+      emit(ctx, f);
+    }
+  }
+}
+
+// Output file: plain stdio or zlib's gzip stream (a fixed header: no name, mtime 0).
+struct CandumpLogWriter::Sink {
+  std::string path;
+  FILE* file = nullptr;
+  gzFile gz = nullptr;
+  std::string buffer;
+  void Flush() {
+    if (buffer.empty()) return;
+    bool ok = true;
+    if (gz) ok = gzwrite(gz, buffer.data(), static_cast<unsigned>(buffer.size())) == static_cast<int>(buffer.size());
+    if (file) ok = std::fwrite(buffer.data(), 1, buffer.size(), file) == buffer.size();
+    if (!ok) throw Error(path + ": write failed");
+    buffer.clear();
+  }
+};
+
+CandumpLogWriter::CandumpLogWriter(const dbc::Database& db, const config::SimulationConfig& cfg, const std::string& path)
+    : encoder_(db, cfg), sink_(std::make_unique<Sink>()), bus_(cfg.bus_name) {
+  sink_->path = path;
+  const bool gzip = path.size() >= 3 && path.compare(path.size() - 3, 3, ".gz") == 0;
+  if (gzip) {
+    sink_->gz = gzopen(path.c_str(), "wb6");
+    if (sink_->gz) gzbuffer(sink_->gz, 1 << 20);
+  } else {
+    sink_->file = std::fopen(path.c_str(), "wb");
+  }
+  if (!sink_->gz && !sink_->file) throw Error(path + ": cannot open for writing");
+  sink_->buffer.reserve(1 << 21);
+}
+
+CandumpLogWriter::~CandumpLogWriter() {
+  try {
+    Close();
+  } catch (...) {
+  }
+}
+
+void CandumpLogWriter::WriteDrive(const DriveResult& drive) {
+  encoder_.EncodeDrive(drive, [this](const can::CanFrame& f) {
+    sink_->buffer += can::FormatCandumpLine(f, bus_);
+    sink_->buffer += '\n';
+    ++frames_;
+    if (sink_->buffer.size() > (1u << 20)) sink_->Flush();
+  });
+}
+
+void CandumpLogWriter::Close() {
+  if (!sink_ || (!sink_->gz && !sink_->file)) return;
+  sink_->Flush();
+  bool ok = true;
+  if (sink_->gz) ok = gzclose(sink_->gz) == Z_OK;
+  if (sink_->file) ok = std::fclose(sink_->file) == 0;
+  sink_->gz = nullptr;
+  sink_->file = nullptr;
+  if (!ok) throw Error(sink_->path + ": closing failed");
+}
+
+void WriteCandumpLog(const SimulationResult& result, const dbc::Database& db, const std::string& path) {
+  CandumpLogWriter writer(db, result.config, path);
+  for (const auto& d : result.drives) writer.WriteDrive(d);
+  writer.Close();
+}
+
+}  // namespace ndsid::sim

@@ -1,0 +1,93 @@
+#include "sensors.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ndsid/model/single_track.h"
+
+namespace ndsid::sim {
+
+namespace {
+constexpr double kDeg = M_PI / 180.0;
+constexpr double kValidAfter_s = 0.3;  // sensors report "invalid" during initialisation after key-on
+}  // namespace
+
+SensorModel::SensorModel(const config::SimulationConfig& cfg, double dt_step_s, Rng& rng)
+    : cfg_(cfg),
+      dt_step_s_(dt_step_s),
+      rng_(rng),
+      disturbance_(cfg.noise.lat_accel_disturbance_mps2, cfg.noise.lat_accel_disturbance_tau_s),
+      mu_esp_(cfg.effects.tyre_mu > 0.0 ? cfg.effects.tyre_mu : 1.0) {
+  disturbance_.Reset(rng_);
+}
+
+void SensorModel::PushSteer(double steer_sw_rad) { steer_history_.push_back(steer_sw_rad); }
+
+double SensorModel::SteerAt(double t_s) const {
+  const double x = std::clamp(t_s / dt_step_s_, 0.0, static_cast<double>(steer_history_.size() - 1));
+  const size_t i = static_cast<size_t>(x);
+  if (i + 1 >= steer_history_.size()) return steer_history_.back();
+  const double f = x - static_cast<double>(i);
+  return steer_history_[i] + f * (steer_history_[i + 1] - steer_history_[i]);
+}
+
+void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) {
+  const auto& fx = cfg_.effects;
+  const auto& nz = cfg_.noise;
+  const double g = model::kGravity_mps2;
+  // The same number of draws whatever the effects and noise levels (effect on/off runs match).
+  const double n_steer = rng_.Normal(), n_speed = rng_.Normal(), n_ay = rng_.Normal(), n_ax = rng_.Normal(),
+               n_r = rng_.Normal();
+  double n_wheel[4];
+  for (double& n : n_wheel) n = rng_.Normal();
+  const double disturbance = disturbance_.Step(rng_, 1.0 / kOutputRate_hz);
+
+  out.t_s.push_back(st.t);
+  out.steer_sw_rad.push_back(st.steer);
+  out.speed_mps.push_back(st.v);
+  out.a_y_mps2.push_back(st.a_y);
+  out.yaw_rate_radps.push_back(st.r);
+  out.yaw_accel_radps2.push_back(st.r_dot);
+  out.side_slip_rad.push_back(st.beta);
+  out.a_x_mps2.push_back(st.a_x);
+  out.roll_rad.push_back(st.roll);
+  out.bank_rad.push_back(st.bank);
+  out.curvature_1pm.push_back(st.kappa);
+  out.s_m.push_back(st.s);
+  out.lateral_offset_m.push_back(st.e);
+  out.lane_target_m.push_back(st.e_target);
+  out.heading_error_rad.push_back(st.psi);
+  out.reverse.push_back(st.reverse ? 1 : 0);
+
+  // Steering: the message carries the value from steer_delay_ms earlier, offset at the wheel.
+  const double delay_s = fx.steer_delay_ms / 1000.0;
+  const double steer_delayed = SteerAt(st.t - delay_s);
+  out.steer_sw_meas_rad.push_back(steer_delayed + fx.steer_offset_deg * kDeg + nz.steer_deg * kDeg * n_steer);
+  out.steer_rate_meas_radps.push_back((steer_delayed - SteerAt(st.t - delay_s - 0.01)) / 0.01);
+
+  // Speed: wheel-based, scaled by (1 + eps), never negative, exactly 0 at standstill.
+  const double scale = 1.0 + fx.speed_scale_pct / 100.0;
+  const double speed_abs = std::fabs(st.v);
+  const bool standing = speed_abs < 0.01;
+  out.speed_meas_mps.push_back(standing ? 0.0 : std::max(0.0, scale * speed_abs + nz.speed_kph / 3.6 * n_speed));
+  const double half_track = 0.5 * cfg_.vehicle.track_width_m;
+  const double sgn = st.v < 0 ? -1.0 : 1.0;
+  for (int w = 0; w < 4; ++w) {
+    const double side = (w % 2 == 0) ? -1.0 : 1.0;  // left wheels (FL, RL) on the inside of a left turn
+    const double vw = std::fabs(st.v + sgn * side * st.r * half_track);
+    out.wheel_speed_meas_mps[w].push_back(standing ? 0.0 : std::max(0.0, scale * vw + nz.speed_kph / 3.6 * n_wheel[w]));
+  }
+
+  // Accelerometer: a_y,meas = a_y + g*phi + x_s*r' + b + disturbance + noise.
+  out.a_y_meas_mps2.push_back(st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot + fx.accel_bias_mps2 + disturbance +
+                              nz.lat_accel_mps2 * n_ay);
+  out.a_x_meas_mps2.push_back(st.a_x + nz.long_accel_mps2 * n_ax);
+  out.yaw_rate_meas_radps.push_back(st.r + nz.yaw_rate_degps * kDeg * n_r);
+
+  out.valid.push_back(st.t >= kValidAfter_s ? 1 : 0);
+  out.esp_active.push_back((std::fabs(st.a_y) > 0.8 * mu_esp_ * g || std::fabs(st.beta) > 4.0 * kDeg) ? 1 : 0);
+  out.brake.push_back((st.a_x < -0.3 || standing) ? 1 : 0);
+  out.gear.push_back(gear);
+}
+
+}  // namespace ndsid::sim

@@ -1,0 +1,38 @@
+// The car's sensors as the bus reports them (before DBC quantisation): the hidden sensor-side
+// effects (bias, steering offset, roll and lever arm on the accelerometer, steering delay, speed
+// scale) plus white noise and a slow zero-mean accelerometer disturbance. Private to src/sim.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "ndsid/config/simulation_config.h"
+#include "ndsid/sim/random.h"
+#include "ndsid/sim/simulator.h"
+
+namespace ndsid::sim {
+
+// The true state at one 100 Hz sample.
+struct SampleTruth {
+  double t, steer, v, a_y, r, r_dot, beta, a_x, roll, bank, kappa, s, e, e_target, psi;
+  bool reverse;
+};
+
+class SensorModel {
+ public:
+  SensorModel(const config::SimulationConfig& cfg, double dt_step_s, Rng& rng);
+  void PushSteer(double steer_sw_rad);  // the true steering at every integration step
+  void Record(const SampleTruth& truth, uint8_t gear, DriveSeries& out);
+
+ private:
+  double SteerAt(double t_s) const;  // true steering at t (linear interpolation, clamped)
+
+  const config::SimulationConfig& cfg_;
+  double dt_step_s_;
+  Rng& rng_;
+  std::vector<double> steer_history_;
+  OrnsteinUhlenbeck disturbance_;
+  double mu_esp_;
+};
+
+}  // namespace ndsid::sim

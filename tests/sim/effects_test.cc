@@ -1,0 +1,191 @@
+// Every hidden effect changes the signals exactly as its equation in physics.md §4 says:
+// effect-on vs effect-off runs with the same seed (the noise and driver streams are identical).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "ndsid/sim/simulator.h"
+
+namespace ndsid::sim {
+namespace {
+
+constexpr double kG = model::kGravity_mps2;
+
+config::SimulationConfig Base() {
+  config::SimulationConfig cfg;
+  cfg.duration.drives = 2;
+  cfg.seed = 77;
+  return cfg;
+}
+
+struct Pair {
+  SimulationResult off, on;
+};
+Pair RunPair(void (*set)(config::SimEffects&), config::SimulationConfig cfg = Base()) {
+  Pair p{Simulate(cfg), {}};
+  set(cfg.effects);
+  p.on = Simulate(cfg);
+  return p;
+}
+
+// Sensor-side effects leave the truth untouched.
+void ExpectSameTruth(const Pair& p) {
+  ASSERT_EQ(p.off.drives.size(), p.on.drives.size());
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    ASSERT_EQ(p.off.drives[d].series.a_y_mps2, p.on.drives[d].series.a_y_mps2);
+    ASSERT_EQ(p.off.drives[d].series.steer_sw_rad, p.on.drives[d].series.steer_sw_rad);
+  }
+}
+
+TEST(Effects, AccelBiasShiftsLateralAccelByBEverywhere) {
+  // Catches a bias applied only while moving, or to the truth instead of the sensor.
+  const auto p = RunPair([](config::SimEffects& e) { e.accel_bias_mps2 = 0.12; });
+  ExpectSameTruth(p);
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(b.a_y_meas_mps2[i] - a.a_y_meas_mps2[i], 0.12, 1e-12);
+  }
+}
+
+TEST(Effects, SteerOffsetShiftsMeasuredSteeringByD0) {
+  // Catches an offset applied at the road wheel (/is) or in the wrong unit.
+  const auto p = RunPair([](config::SimEffects& e) { e.steer_offset_deg = 1.5; });
+  ExpectSameTruth(p);
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    for (size_t i = 0; i < a.size(); ++i)
+      ASSERT_NEAR(b.steer_sw_meas_rad[i] - a.steer_sw_meas_rad[i], 1.5 * M_PI / 180.0, 1e-12);
+  }
+}
+
+TEST(Effects, LeverArmAddsXsTimesYawAcceleration) {
+  // Catches a lever-arm term with the wrong sign or using the measured (noisy) yaw rate.
+  const auto p = RunPair([](config::SimEffects& e) { e.lever_arm_m = 0.8; });
+  ExpectSameTruth(p);
+  double max_term = 0.0;
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    for (size_t i = 0; i < a.size(); ++i) {
+      ASSERT_NEAR(b.a_y_meas_mps2[i] - a.a_y_meas_mps2[i], 0.8 * b.yaw_accel_radps2[i], 1e-12);
+      max_term = std::max(max_term, std::fabs(0.8 * b.yaw_accel_radps2[i]));
+    }
+    // r' is the derivative of the recorded yaw rate (central difference, 100 Hz) where dynamic.
+    for (size_t i = 1; i + 1 < b.size(); ++i) {
+      if (std::fabs(b.speed_mps[i]) < 5.0) continue;
+      const double fd = (b.yaw_rate_radps[i + 1] - b.yaw_rate_radps[i - 1]) / 0.02;
+      ASSERT_NEAR(b.yaw_accel_radps2[i], fd, 0.01 + 0.02 * std::fabs(fd)) << "t " << b.t_s[i];
+    }
+  }
+  EXPECT_GT(max_term, 0.1);
+}
+
+TEST(Effects, SteerDelayShiftsSteeringByDt) {
+  // Catches a delay applied to the accelerometer instead, or rounded to the message cycle.
+  const auto p = RunPair([](config::SimEffects& e) { e.steer_delay_ms = 50.0; });
+  ExpectSameTruth(p);
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    for (size_t i = 5; i < a.size(); ++i)  // 50 ms = 5 samples at 100 Hz
+      ASSERT_NEAR(b.steer_sw_meas_rad[i] - a.steer_sw_meas_rad[i], b.steer_sw_rad[i - 5] - b.steer_sw_rad[i], 1e-12);
+  }
+}
+
+TEST(Effects, SpeedScaleMultipliesMeasuredSpeed) {
+  // Catches a scale error applied to the true speed (the dynamics) instead of the sensor.
+  const auto p = RunPair([](config::SimEffects& e) { e.speed_scale_pct = 2.5; });
+  ExpectSameTruth(p);
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    for (size_t i = 0; i < a.size(); ++i) {
+      if (std::fabs(b.speed_mps[i]) < 1.0) continue;
+      ASSERT_NEAR(b.speed_meas_mps[i] - a.speed_meas_mps[i], 0.025 * std::fabs(b.speed_mps[i]), 1e-12);
+      ASSERT_NEAR(b.wheel_speed_meas_mps[2][i] - a.wheel_speed_meas_mps[2][i],
+                  0.025 * std::fabs(b.speed_mps[i] - b.yaw_rate_radps[i] * 0.5 * Base().vehicle.track_width_m), 1e-12);
+    }
+  }
+}
+
+TEST(Effects, RollAddsGTimesPhiFromTheRollOde) {
+  // Catches roll without its own dynamics (phi = k a_y instantly) or with the wrong gain/sign.
+  const auto p = RunPair([](config::SimEffects& e) { e.roll_gradient_deg_per_g = 6.0; });
+  ExpectSameTruth(p);
+  const double k = 6.0 * M_PI / 180.0 / kG, w = 2.0 * M_PI * 1.5, zeta = 0.5;
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    double phi = 0.0, phi_dot = 0.0, err2 = 0.0, ref2 = 0.0, instant2 = 0.0;
+    const double h = 0.001;
+    for (size_t i = 0; i < a.size(); ++i) {
+      ASSERT_NEAR(b.a_y_meas_mps2[i] - a.a_y_meas_mps2[i], kG * b.roll_rad[i], 1e-12);
+      // Independent integration of phi'' = w^2 (k a_y - phi) - 2 zeta w phi' from the recorded a_y.
+      err2 += (phi - b.roll_rad[i]) * (phi - b.roll_rad[i]);
+      ref2 += b.roll_rad[i] * b.roll_rad[i];
+      instant2 += (k * b.a_y_mps2[i] - b.roll_rad[i]) * (k * b.a_y_mps2[i] - b.roll_rad[i]);
+      if (i + 1 < a.size())
+        for (int s = 0; s < 10; ++s) {
+          const double f = (s + 0.5) / 10.0;
+          const double ay = b.a_y_mps2[i] + f * (b.a_y_mps2[i + 1] - b.a_y_mps2[i]);
+          const double acc = w * w * (k * ay - phi) - 2.0 * zeta * w * phi_dot;
+          phi_dot += h * acc;
+          phi += h * phi_dot;
+        }
+    }
+    std::printf("drive %zu: rms(phi - phi_ode)/rms(phi) %.2e, rms(phi - k a_y)/rms(phi) %.2e\n", d,
+                std::sqrt(err2 / ref2), std::sqrt(instant2 / ref2));
+    EXPECT_LT(std::sqrt(err2 / ref2), 0.01) << "drive " << d;
+    EXPECT_LT(std::sqrt(err2), 0.2 * std::sqrt(instant2)) << "roll has dynamics, not an instant gain";
+  }
+}
+
+TEST(Effects, SuperelevationBanksIntoCurvesInDynamicsAndOnAccelerometer) {
+  // Catches a bank that acts only on the sensor (or only on the dynamics), or leans the wrong way.
+  config::SimulationConfig cfg = Base();
+  cfg.road.crossfall_pct_max = 0.0;  // isolate the superelevation
+  cfg.effects.superelevation_pct = 6.0;
+  cfg.duration.drives = 3;
+  const auto r = Simulate(cfg);
+  double with2 = 0.0, without2 = 0.0, corr = 0.0, max_bank = 0.0;
+  size_t n = 0;
+  for (const auto& d : r.drives) {
+    const auto& s = d.series;
+    for (size_t i = 1; i + 1 < s.size(); ++i) {
+      corr += s.bank_rad[i] * s.curvature_1pm[i];
+      max_bank = std::max(max_bank, std::fabs(s.bank_rad[i]));
+      const double v = s.speed_mps[i];
+      if (v < 5.0) continue;
+      // Accelerometer = tyre forces/m = v (beta' + r) + g sin(theta) (gravity supports the turn).
+      const double beta_dot = (s.side_slip_rad[i + 1] - s.side_slip_rad[i - 1]) / 0.02;
+      const double kin = v * (beta_dot + s.yaw_rate_radps[i]);
+      const double e_with = s.a_y_mps2[i] - kin - kG * std::sin(s.bank_rad[i]);
+      const double e_without = s.a_y_mps2[i] - kin;
+      with2 += e_with * e_with;
+      without2 += e_without * e_without;
+      ++n;
+    }
+  }
+  ASSERT_GT(n, 1000u);
+  std::printf("rms(a_y - v(beta'+r) - g sin theta) %.4f, without the bank term %.4f m/s^2, max bank %.2f %%\n",
+              std::sqrt(with2 / n), std::sqrt(without2 / n), 100.0 * std::tan(max_bank));
+  EXPECT_LT(std::sqrt(with2 / n), 0.02);
+  EXPECT_GT(std::sqrt(without2 / n), 3.0 * std::sqrt(with2 / n));
+  EXPECT_NEAR(std::tan(max_bank), 0.06, 1e-6);
+  EXPECT_LT(corr, 0.0) << "bank into the curve: theta opposite to the curvature";
+}
+
+TEST(Effects, TyreSaturationOnlyMattersAtHighLateralAccel) {
+  // Catches saturation that already bends the low-a_y range (the study: linear below ~4 m/s^2).
+  config::SimulationConfig cfg = Base();
+  cfg.effects.tyre_mu = 0.9;
+  const auto on = Simulate(cfg);
+  for (const auto& d : on.drives) {
+    const auto& s = d.series;
+    for (size_t i = 0; i < s.size(); ++i) {
+      if (s.speed_mps[i] < 5.0 || std::fabs(s.yaw_accel_radps2[i]) > 0.01) continue;
+      // quasi-steady: d_sw/is - l r/v = EG a_y within the tanh correction (1 - x^2/3 ~ 1.5 % at 2 m/s^2)
+      const double y = s.steer_sw_rad[i] / d.params.is - 2.648 * s.yaw_rate_radps[i] / s.speed_mps[i];
+      if (std::fabs(s.a_y_mps2[i]) < 1.0) EXPECT_NEAR(y, d.self_steer_gradient * s.a_y_mps2[i], 2e-3);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace ndsid::sim
