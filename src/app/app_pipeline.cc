@@ -12,7 +12,7 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
       extractor_(config, db),
       gate_(config.gate, 1.0 / config.sync.rate_hz),
       accumulator_(config, config.sync.rate_hz),
-      identifier_(config.identification, config.vehicle.wheelbase_m),
+      identifier_(config.identification, config.vehicle.wheelbase_m, model::ModelSpec::FromNames(config.model_effects)),
       adequacy_(config.adequacy) {
   samples_.reserve(1024);
 }
@@ -53,12 +53,21 @@ WindowSnapshot Pipeline::Snapshot() const {
   WindowSnapshot snap;
   const double frac = config_.identification.validation_fraction;
   const int64_t every = frac > 0 ? std::max<int64_t>(2, std::llround(1.0 / frac)) : 0;
+  // Held-out drives: every k-th drive (k = 1/validation_fraction); with fewer than k drives in
+  // the window, the newest drive, so that a validation RMSE exists whenever 2 drives do.
+  std::vector<int64_t> drives;
+  for (const auto& seg : accumulator_.window()) {
+    if (drives.empty() || drives.back() != seg->drive_id) drives.push_back(seg->drive_id);
+  }
+  bool any_regular = false;
+  for (int64_t d : drives) any_regular = any_regular || (every > 0 && d % every == every - 1);
+  const int64_t fallback = (every > 0 && !any_regular && drives.size() >= 2) ? drives.back() : -1;
   for (const auto& seg : accumulator_.window()) {
     snap.keep_alive.push_back(seg);
-    const bool held_out = every > 0 && seg->drive_id % every == every - 1;
+    const bool held_out = (every > 0 && seg->drive_id % every == every - 1) || seg->drive_id == fallback;
     (held_out ? snap.validation : snap.training).push_back(seg.get());
   }
-  if (snap.training.empty()) {  // too few drives to hold one out: train on everything
+  if (snap.training.empty()) {  // a single drive: train on everything, no validation
     snap.training.swap(snap.validation);
   }
   snap.gated_hours = accumulator_.gated_hours();
@@ -70,16 +79,22 @@ WindowSnapshot Pipeline::Snapshot() const {
   return snap;
 }
 
-std::optional<model::Params<double>> Pipeline::WarmStart() const {
-  if (last_ && last_->fit.valid) return last_->fit.AsParams();
+std::optional<std::vector<double>> Pipeline::WarmStart() const {
+  if (last_ && last_->fit.valid) return last_->fit.AllValues();
   const bool yaw = config_.role(config::Role::kYawRate) != nullptr;
   const auto ss = accumulator_.steady_state().Estimate(config_.vehicle.wheelbase_m, yaw);
-  if (ss.valid) return identifier_.WarmStart(ss.steer_ratio, ss.eg_rad_per_mps2);
+  if (ss.valid) return identifier_.FullVector(identifier_.WarmStart(ss.steer_ratio, ss.eg_rad_per_mps2));
   return std::nullopt;
 }
 
+std::optional<model::Params<double>> Pipeline::WarmStartBase() const {
+  const auto full = WarmStart();
+  if (!full) return std::nullopt;
+  return model::Params<double>::FromArray(full->data());
+}
+
 identify::IdentificationResult Pipeline::Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                                             const std::optional<model::Params<double>>& warm_start) {
+                                             const std::optional<std::vector<double>>& warm_start) {
   return identifier.Identify(snap.training, snap.validation, warm_start);
 }
 

@@ -3,6 +3,7 @@
 // daemon; driven only by data timestamps, so live and replay take one code path.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -60,7 +61,7 @@ class Pipeline {
   WindowSnapshot Snapshot() const;
   // Fits a snapshot (may run on a worker thread; touches no pipeline state).
   static identify::IdentificationResult Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                                            const std::optional<model::Params<double>>& warm_start);
+                                            const std::optional<std::vector<double>>& warm_start);
   // Records a finished fit: updates adequacy and the last estimate (reading-thread side).
   const Estimate& Accept(const WindowSnapshot& snap, identify::IdentificationResult fit);
   // Snapshot + Fit + Accept in one call (the CLI).
@@ -77,7 +78,25 @@ class Pipeline {
   adequacy::Tracker& mutable_adequacy() { return adequacy_; }
   int64_t data_time_ns() const { return data_time_ns_; }
   uint64_t frames() const { return frames_; }
-  std::optional<model::Params<double>> WarmStart() const;
+  // Start of the next fit (full parameter vector, base then effects): the last valid fit,
+  // else the steady-state estimate, else nothing (the configured initial values).
+  std::optional<std::vector<double>> WarmStart() const;
+  // The base six of WarmStart() (e.g. for the live model monitor).
+  std::optional<model::Params<double>> WarmStartBase() const;
+
+  // --- For the daemon (additive) ---
+  // Called with every gated sample on the reading path (the monitor stream); must not throw.
+  using SampleObserver = std::function<void(const gate::GatedSample&)>;
+  void SetSampleObserver(SampleObserver observer) { observer_ = std::move(observer); }
+  // Learned state persisted across restarts and reloads.
+  stats::Accumulator& mutable_accumulator() { return accumulator_; }
+  double last_fit_gated_hours() const { return last_fit_gated_hours_; }
+  // Continues from a persisted state: the last estimate and the gated hours it was fitted at
+  // (the next identification then waits for new gated data, as if no restart had happened).
+  void RestoreLastEstimate(std::optional<Estimate> last, double last_fit_gated_hours) {
+    last_ = std::move(last);
+    last_fit_gated_hours_ = last_fit_gated_hours;
+  }
 
  private:
   void ConsumeSamples() noexcept;
@@ -96,6 +115,7 @@ class Pipeline {
   int64_t last_fit_data_ns_ = 0;
   double last_fit_gated_hours_ = -1;
   uint64_t frames_ = 0;
+  SampleObserver observer_;
 };
 
 }  // namespace ndsid::app

@@ -29,7 +29,7 @@ std::optional<double> ReadTruthNumber(const std::string& path, const std::string
 }
 
 std::optional<double> ReadTruthEg(const std::string& path) {
-  for (const char* key : {"eg_rad_per_mps2", "vehicle.eg_rad_per_mps2", "truth.eg_rad_per_mps2", "eg.rad_per_mps2"}) {
+  for (const char* key : {"vehicle.self_steer_gradient_rad_per_mps2", "eg_rad_per_mps2", "vehicle.eg_rad_per_mps2"}) {
     if (auto v = ReadTruthNumber(path, key)) return v;
   }
   return std::nullopt;

@@ -1,6 +1,9 @@
 // Segments cut into independently simulated chunks, and the Ceres cost functor over one chunk.
 #pragma once
 
+#include <ceres/dynamic_autodiff_cost_function.h>
+
+#include <memory>
 #include <vector>
 
 #include "ndsid/identify/identifier.h"
@@ -53,5 +56,16 @@ class ChunkResidual {
   const model::ModelSpec& spec_;
   std::vector<double> scale_;
 };
+
+using ChunkCost = ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kJetSize>;
+
+inline std::unique_ptr<ChunkCost> MakeChunkCost(const Chunk& c, size_t burn, double l, const model::ModelSpec& spec,
+                                                const std::vector<double>& scale) {
+  auto* functor = new ChunkResidual(c, burn, l, spec, scale);
+  auto cost = std::make_unique<ChunkCost>(functor);
+  cost->AddParameterBlock(static_cast<int>(scale.size()));
+  cost->SetNumResiduals(static_cast<int>(functor->num_residuals()));
+  return cost;
+}
 
 }  // namespace ndsid::identify

@@ -15,16 +15,7 @@
 namespace ndsid::identify {
 namespace {
 
-using CostFn = ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kJetSize>;
-
-std::unique_ptr<CostFn> MakeCost(const Chunk& c, size_t burn, double l, const model::ModelSpec& spec,
-                                 const std::vector<double>& scale) {
-  auto* functor = new ChunkResidual(c, burn, l, spec, scale);
-  auto cost = std::make_unique<CostFn>(functor);
-  cost->AddParameterBlock(static_cast<int>(scale.size()));
-  cost->SetNumResiduals(static_cast<int>(functor->num_residuals()));
-  return cost;
-}
+using CostFn = ChunkCost;
 
 // Integrated autocorrelation time of the residuals (1 + 2 sum of the autocorrelation up to the
 // first lag where it turns negative), pooled over chunks: the factor by which strongly
@@ -172,7 +163,7 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
   costs.reserve(chunks.size());
   size_t n_res = 0;
   for (const Chunk& c : chunks) {
-    costs.push_back(MakeCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale));
+    costs.push_back(MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale));
     problem.AddResidualBlock(costs.back().get(), nullptr, theta.data());
     n_res += static_cast<size_t>(costs.back()->num_residuals());
   }
