@@ -16,12 +16,20 @@ struct Chunk {
   size_t n;
   double dt_s;
   int64_t drive_id;
+  std::shared_ptr<const std::vector<float>> bank;  // per sample of the chunk (empty: no yaw rate)
 
   model::InputSeries Inputs() const {
     constexpr size_t kStride = sizeof(stats::SegmentSample) / sizeof(float);
-    return {&samples[0].steer_rad, &samples[0].speed_mps, kStride, n, dt_s};
+    model::InputSeries in{&samples[0].steer_rad, &samples[0].speed_mps, kStride, n, dt_s};
+    if (bank && !bank->empty()) in.bank_mps2 = bank->data();
+    return in;
   }
 };
+
+// Road bank from the kinematic residual, g sin(theta) = v (beta' + r) - a_y,meas ~ v r - a_y,meas,
+// low-passed forwards and backwards (zero phase) with time constant tau_s to remove the
+// transient v beta' and the noise. Empty when the segment has no yaw rate.
+std::vector<float> EstimateBank(const stats::Segment& segment, double tau_s = 1.0);
 
 // Long segments are cut into chunks of about chunk_s (the last piece joins its predecessor
 // when shorter than half a chunk); chunks with no residual after the burn-in are dropped.

@@ -49,8 +49,12 @@ struct InputSeries {
   size_t stride;            // floats between consecutive samples
   size_t n;
   double dt_s;
+  // Road bank seen from the data, g*sin(theta) ~ low-pass(v r - a_y,meas) [m/s^2], one float
+  // per sample (nullptr when the bus has no yaw rate). Used by the road_bank effect.
+  const float* bank_mps2 = nullptr;
   double steer(size_t k) const { return steer_rad[k * stride]; }
   double speed(size_t k) const { return speed_mps[k * stride]; }
+  double bank(size_t k) const { return bank_mps2 ? bank_mps2[k] : 0.0; }
   template <typename T>
   T Steer(const T& index) const { return Lerp(steer_rad, index); }
   template <typename T>
@@ -74,6 +78,7 @@ template <typename T>
 struct ModelInputs {
   T steer_rad;
   T speed_mps;
+  T bank_mps2;  // road bank estimate from the data (0 when unknown); see InputSeries
 };
 
 // What the dynamics hook may change: axle forces, and an extra lateral acceleration on the

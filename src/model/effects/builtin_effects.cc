@@ -18,6 +18,7 @@ const std::vector<std::pair<std::string, Factory>>& Table() {
       {"steer_delay", MakeSteerDelay},
       {"speed_scale", MakeSpeedScale},
       {"crossfall", MakeCrossfall},            // dynamics
+      {"road_bank", MakeRoadBank},
       {"superelevation", MakeSuperelevation},
       {"relaxation", MakeRelaxation},
       {"tyre_saturation", MakeTyreSaturation},

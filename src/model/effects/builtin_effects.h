@@ -12,6 +12,7 @@ std::shared_ptr<const Effect> MakeSteerOffset();
 std::shared_ptr<const Effect> MakeSteerDelay();
 std::shared_ptr<const Effect> MakeSpeedScale();
 std::shared_ptr<const Effect> MakeCrossfall();
+std::shared_ptr<const Effect> MakeRoadBank();
 std::shared_ptr<const Effect> MakeSuperelevation();
 std::shared_ptr<const Effect> MakeRelaxation();
 std::shared_ptr<const Effect> MakeTyreSaturation();
