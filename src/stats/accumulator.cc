@@ -2,6 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <type_traits>
+
+#include "ndsid/common/error.h"
 
 namespace ndsid::stats {
 
@@ -16,12 +21,12 @@ void Accumulator::Add(const gate::GatedSample& g) {
   if (g.new_drive) {
     CloseSegment();
     CloseDrive();
-    drives_.push_back({g.drive_id, g.sample.t_ns, g.sample.t_ns, 0, 0, false});
+    drives_.push_back({g.drive_id + drive_id_offset_, g.sample.t_ns, g.sample.t_ns, 0, 0, false});
     drive_open_ = true;
     drive_used_ = false;
   }
   if (!drive_open_) {
-    drives_.push_back({g.drive_id, g.sample.t_ns, g.sample.t_ns, 0, 0, false});
+    drives_.push_back({g.drive_id + drive_id_offset_, g.sample.t_ns, g.sample.t_ns, 0, 0, false});
     drive_open_ = true;
   }
   DriveSummary& d = drives_.back();
@@ -44,7 +49,7 @@ void Accumulator::Add(const gate::GatedSample& g) {
     // Decimate by averaging `decimation_` consecutive samples (a boxcar anti-alias filter).
     if (!segment_open_) {
       current_ = Segment{};
-      current_.drive_id = g.drive_id;
+      current_.drive_id = g.drive_id + drive_id_offset_;
       current_.dt_s = segment_dt_s_;
       current_.has_yaw_rate = g.sample.has_yaw_rate;
       current_.has_long_accel = g.sample.has_long_accel;
@@ -134,6 +139,195 @@ double Accumulator::window_hours() const {
   double s = 0;
   for (const auto& seg : window_) s += seg->duration_s();
   return s / 3600.0;
+}
+
+// ---- Persistence --------------------------------------------------------------------------
+
+namespace {
+
+constexpr char kAccumulatorTag[4] = {'A', 'C', 'C', '1'};
+constexpr uint64_t kMaxCount = uint64_t{1} << 32;  // no count in a plausible state comes near this
+
+class ByteWriter {
+ public:
+  template <typename T>
+  void Put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out_.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  void PutBlob(const std::string& s) {
+    Put<uint64_t>(s.size());
+    out_ += s;
+  }
+  std::string& str() { return out_; }
+
+ private:
+  std::string out_;
+};
+
+class ByteReader {
+ public:
+  explicit ByteReader(const std::string& in) : in_(in) {}
+  template <typename T>
+  T Get() {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (in_.size() - pos_ < sizeof(T)) throw Error("accumulator state: truncated");
+    T v;
+    std::memcpy(&v, in_.data() + pos_, sizeof v);
+    pos_ += sizeof v;
+    return v;
+  }
+  double Finite() {
+    const double v = Get<double>();
+    if (!std::isfinite(v)) throw Error("accumulator state: non-finite value");
+    return v;
+  }
+  uint64_t Count() {
+    const uint64_t n = Get<uint64_t>();
+    if (n > kMaxCount || n > in_.size() - pos_ + 1) throw Error("accumulator state: implausible count");
+    return n;
+  }
+  std::string Blob() {
+    const uint64_t n = Count();
+    if (in_.size() - pos_ < n) throw Error("accumulator state: truncated");
+    std::string s = in_.substr(pos_, n);
+    pos_ += n;
+    return s;
+  }
+  void Expect(const char (&tag)[4]) {
+    for (char c : tag) {
+      if (Get<char>() != c) throw Error("accumulator state: wrong tag (not an accumulator state, or another version)");
+    }
+  }
+  bool done() const { return pos_ == in_.size(); }
+
+ private:
+  const std::string& in_;
+  size_t pos_ = 0;
+};
+
+void CheckFinite(const RegressionStats& r) {
+  bool ok = std::isfinite(r.yty()) && std::isfinite(r.n()) && r.n() >= 0;
+  for (double v : r.xtx()) ok = ok && std::isfinite(v);
+  for (double v : r.xty()) ok = ok && std::isfinite(v);
+  if (!ok) throw Error("accumulator state: non-finite or negative steady-state statistics");
+}
+
+void CheckFinite(const Histogram2d& h) {
+  for (double v : h.counts) {
+    if (!std::isfinite(v) || v < 0) throw Error("accumulator state: non-finite or negative coverage count");
+  }
+}
+
+}  // namespace
+
+std::string Accumulator::Serialize() const {
+  Accumulator done = *this;  // segments are shared, so this copy is cheap
+  done.Finish();
+  ByteWriter w;
+  for (char c : kAccumulatorTag) w.Put(c);
+  w.Put(done.gated_s_);
+  w.Put<uint64_t>(done.counters_.short_drive_samples);
+  w.Put<uint64_t>(done.counters_.short_segment_samples);
+  w.Put<uint64_t>(done.counters_.evicted_segments);
+  w.PutBlob(done.steady_.Serialize());
+  w.PutBlob(done.coverage_.Serialize());
+  w.Put<uint64_t>(done.drives_.size());
+  for (const DriveSummary& d : done.drives_) {
+    w.Put(d.drive_id);
+    w.Put(d.start_ns);
+    w.Put(d.end_ns);
+    w.Put(d.distance_km);
+    w.Put(d.gated_s);
+    w.Put<uint8_t>(d.used);
+  }
+  w.Put<uint64_t>(done.window_.size());
+  for (const auto& seg : done.window_) {
+    w.Put(seg->t0_ns);
+    w.Put(seg->drive_id);
+    w.Put(seg->dt_s);
+    w.Put<uint8_t>(seg->has_yaw_rate);
+    w.Put<uint8_t>(seg->has_long_accel);
+    w.Put<uint64_t>(seg->samples.size());
+    w.str().append(reinterpret_cast<const char*>(seg->samples.data()), seg->samples.size() * sizeof(SegmentSample));
+  }
+  return std::move(w.str());
+}
+
+void Accumulator::Restore(const std::string& bytes) {
+  ByteReader r(bytes);
+  r.Expect(kAccumulatorTag);
+  const double gated_s = r.Finite();
+  if (gated_s < 0) throw Error("accumulator state: negative gated time");
+  AccumulatorCounters counters;
+  counters.short_drive_samples = r.Get<uint64_t>();
+  counters.short_segment_samples = r.Get<uint64_t>();
+  counters.evicted_segments = r.Get<uint64_t>();
+  SteadyStateStats steady = SteadyStateStats::Deserialize(r.Blob());
+  CheckFinite(steady.without_yaw());
+  CheckFinite(steady.with_yaw());
+  Coverage coverage = Coverage::Deserialize(r.Blob());
+  CheckFinite(coverage.gg());
+  CheckFinite(coverage.v_ay());
+
+  std::vector<DriveSummary> drives(r.Count());
+  int64_t next_drive_id = 0;
+  for (DriveSummary& d : drives) {
+    d.drive_id = r.Get<int64_t>();
+    d.start_ns = r.Get<int64_t>();
+    d.end_ns = r.Get<int64_t>();
+    d.distance_km = r.Finite();
+    d.gated_s = r.Finite();
+    d.used = r.Get<uint8_t>() != 0;
+    if (d.drive_id < 0 || d.end_ns < d.start_ns || d.distance_km < 0 || d.gated_s < 0) {
+      throw Error("accumulator state: implausible drive summary");
+    }
+    next_drive_id = std::max(next_drive_id, d.drive_id + 1);
+  }
+  std::deque<std::shared_ptr<const Segment>> window;
+  const size_t n_segments = r.Count();
+  for (size_t i = 0; i < n_segments; ++i) {
+    Segment seg;
+    seg.t0_ns = r.Get<int64_t>();
+    seg.drive_id = r.Get<int64_t>();
+    seg.dt_s = r.Finite();
+    seg.has_yaw_rate = r.Get<uint8_t>() != 0;
+    seg.has_long_accel = r.Get<uint8_t>() != 0;
+    seg.samples.resize(r.Count());
+    if (!(seg.dt_s > 0) || seg.drive_id < 0) throw Error("accumulator state: implausible segment");
+    for (SegmentSample& s : seg.samples) {
+      s = r.Get<SegmentSample>();
+      for (float v : {s.steer_rad, s.speed_mps, s.lat_accel_mps2, s.yaw_rate_radps, s.long_accel_mps2}) {
+        if (!std::isfinite(v)) throw Error("accumulator state: non-finite segment sample");
+      }
+    }
+    next_drive_id = std::max(next_drive_id, seg.drive_id + 1);
+    window.push_back(std::make_shared<const Segment>(std::move(seg)));
+  }
+  if (!r.done()) throw Error("accumulator state: trailing bytes");
+
+  // Everything checked: replace the learned state, forget anything open.
+  steady_ = std::move(steady);
+  coverage_ = std::move(coverage);
+  window_ = std::move(window);
+  drives_ = std::move(drives);
+  gated_s_ = gated_s;
+  counters_ = counters;
+  pending_steady_ = SteadyStateStats{};
+  pending_coverage_ = Coverage{};
+  pending_segments_.clear();
+  pending_gated_s_ = 0;
+  pending_samples_ = 0;
+  drive_open_ = drive_used_ = segment_open_ = false;
+  summed_ = 0;
+  drive_id_offset_ = next_drive_id;
+  // A shorter window_h than the state was learned with: evict as CloseSegment() does.
+  double total = window_hours() * 3600.0;
+  while (!window_.empty() && total - window_.front()->duration_s() >= window_s_) {
+    total -= window_.front()->duration_s();
+    window_.pop_front();
+    ++counters_.evicted_segments;
+  }
 }
 
 }  // namespace ndsid::stats

@@ -49,6 +49,15 @@ class Accumulator {
   double window_hours() const;
   const AccumulatorCounters& counters() const { return counters_; }
 
+  // Persistence (the daemon's learned state). Serialize() writes what Finish() would leave if
+  // the data ended now (the open segment closed, an open drive short of min_drive_km dropped)
+  // without changing this object; binary, host byte order. Restore() replaces everything
+  // learned with a serialized state, checks every value (finite, in range) and throws
+  // ndsid::Error on a malformed or implausible state, leaving this object unchanged. Drives
+  // seen after a restore are numbered after the restored ones.
+  std::string Serialize() const;
+  void Restore(const std::string& bytes);
+
  private:
   void CloseSegment();
   void CloseDrive();
@@ -77,6 +86,7 @@ class Accumulator {
   int summed_ = 0;
   int64_t sum_t0_ns_ = 0;
   AccumulatorCounters counters_;
+  int64_t drive_id_offset_ = 0;  // added to the gate's drive ids after a Restore()
 };
 
 }  // namespace ndsid::stats

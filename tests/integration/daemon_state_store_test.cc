@@ -1,0 +1,286 @@
+// The daemon's learned state: accumulator persistence, the state file's checks, quarantine,
+// and the sanity checks on restore.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "daemon_test_config.h"
+#include "ndsid/common/atomic_file.h"
+#include "ndsid/dbc/dbc_parser.h"
+#include "ndsid/stats/accumulator.h"
+#include "state_store.h"
+
+namespace ndsid {
+namespace {
+
+namespace fs = std::filesystem;
+
+// `seconds` of accepted samples at 100 Hz and 20 m/s with a slow steering sine, one drive.
+void FeedDrive(stats::Accumulator& acc, int64_t drive_id, int64_t t0_ns, double seconds, double from_s = 0) {
+  const double dt = 0.01;
+  for (double t = from_s; t < seconds; t += dt) {
+    gate::GatedSample g;
+    g.sample.t_ns = t0_ns + static_cast<int64_t>(std::llround(t * 1e9));
+    g.sample.speed_mps = 20;
+    g.sample.steer_rad = 0.05 * std::sin(0.3 * t);
+    g.sample.lat_accel_mps2 = 2.0 * std::sin(0.3 * t);
+    g.sample.yaw_rate_radps = 0.1 * std::sin(0.3 * t);
+    g.sample.has_yaw_rate = true;
+    g.sample.valid = true;
+    g.verdict = gate::Verdict::kAccepted;
+    g.drive_id = drive_id;
+    g.new_drive = t == from_s && from_s == 0;
+    g.segment_start = g.new_drive;
+    g.quasi_steady = true;
+    g.drive_distance_m = 20 * t;
+    acc.Add(g);
+  }
+}
+
+class StateTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("ndsid_state_test_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    config_ = testing::DaemonTestConfig({{"STATE_DIR", dir_.string()}});
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  app::LearnedState MakeState() {
+    stats::Accumulator acc(config_, config_.sync.rate_hz);
+    FeedDrive(acc, 0, 0, 200);  // 4 km: used
+    app::LearnedState st;
+    st.vehicle = config_.vehicle.name;
+    st.data_time_ns = 200'000'000'000;
+    st.identifications = 3;
+    st.last_fit_gated_hours = acc.gated_hours();
+    st.accumulator = acc.Serialize();
+    adequacy::Tracker tracker(config_.adequacy);
+    tracker.Update(acc.gated_hours(), 2e-3, 1e-5, acc.coverage());
+    st.adequacy = tracker.Serialize();
+    app::Estimate e;
+    e.fit.valid = true;
+    const double values[] = {1900, 2700, 78000, 122000, 1.15, 14.8};
+    for (int i = 0; i < model::kNumParams; ++i) e.fit.params[i].value = values[i];
+    e.fit.params[0].fixed = true;
+    e.fit.eg_rad_per_mps2 = model::SelfSteerGradient(e.fit.AsParams(), config_.vehicle.wheelbase_m);
+    e.fit.eg_deg_per_g = model::EgToDegPerG(e.fit.eg_rad_per_mps2);
+    e.fit.reason = "line one\nline two";
+    e.gated_hours = acc.gated_hours();
+    st.last_estimate = e;
+    return st;
+  }
+
+  fs::path dir_;
+  config::Config config_;
+};
+
+TEST(AccumulatorPersistence, RestoreGivesSameStatisticsWindowAndDrives) {
+  const config::Config c = testing::DaemonTestConfig();
+  stats::Accumulator a(c, c.sync.rate_hz);
+  FeedDrive(a, 0, 0, 150);
+  FeedDrive(a, 1, 1'000'000'000'000, 150);
+  a.Finish();
+  stats::Accumulator b(c, c.sync.rate_hz);
+  b.Restore(a.Serialize());
+  EXPECT_DOUBLE_EQ(b.gated_hours(), a.gated_hours());
+  EXPECT_TRUE(b.steady_state() == a.steady_state());
+  EXPECT_EQ(b.coverage().Serialize(), a.coverage().Serialize());
+  ASSERT_EQ(b.window().size(), a.window().size());
+  for (size_t i = 0; i < a.window().size(); ++i) {
+    ASSERT_EQ(b.window()[i]->samples.size(), a.window()[i]->samples.size());
+    EXPECT_EQ(0, std::memcmp(b.window()[i]->samples.data(), a.window()[i]->samples.data(),
+                             a.window()[i]->samples.size() * sizeof(stats::SegmentSample)));
+    EXPECT_EQ(b.window()[i]->drive_id, a.window()[i]->drive_id);
+  }
+  ASSERT_EQ(b.drives().size(), 2u);
+  EXPECT_TRUE(b.drives()[1].used);
+  EXPECT_EQ(b.Serialize(), a.Serialize());
+}
+
+TEST(AccumulatorPersistence, SerializeMidDriveLeavesTheAccumulatorUnchanged) {
+  const config::Config c = testing::DaemonTestConfig();
+  stats::Accumulator a(c, c.sync.rate_hz), b(c, c.sync.rate_hz);
+  FeedDrive(a, 0, 0, 60);
+  FeedDrive(b, 0, 0, 60);
+  const std::string mid = a.Serialize();  // drive still open, 1.2 km: not yet used
+  EXPECT_FALSE(mid.empty());
+  FeedDrive(a, 0, 0, 200, 60);
+  FeedDrive(b, 0, 0, 200, 60);
+  EXPECT_EQ(a.Serialize(), b.Serialize());
+  EXPECT_GT(a.gated_hours(), 0.05);
+}
+
+TEST(AccumulatorPersistence, OpenDriveShorterThanMinimumIsNotPersisted) {
+  const config::Config c = testing::DaemonTestConfig();
+  stats::Accumulator a(c, c.sync.rate_hz);
+  FeedDrive(a, 0, 0, 60);  // 1.2 km < min_drive_km = 2
+  stats::Accumulator b(c, c.sync.rate_hz);
+  b.Restore(a.Serialize());
+  EXPECT_EQ(b.gated_hours(), 0.0);
+  EXPECT_TRUE(b.window().empty());
+}
+
+TEST(AccumulatorPersistence, DrivesAfterRestoreAreNumberedAfterRestoredOnes) {
+  const config::Config c = testing::DaemonTestConfig();
+  stats::Accumulator a(c, c.sync.rate_hz);
+  FeedDrive(a, 0, 0, 150);
+  FeedDrive(a, 1, 1'000'000'000'000, 150);
+  stats::Accumulator b(c, c.sync.rate_hz);
+  b.Restore(a.Serialize());
+  FeedDrive(b, 0, 2'000'000'000'000, 150);  // the gate numbers from 0 again after a restart
+  b.Finish();
+  ASSERT_EQ(b.drives().size(), 3u);
+  EXPECT_EQ(b.drives().back().drive_id, 2);
+  EXPECT_EQ(b.window().back()->drive_id, 2);
+}
+
+TEST(AccumulatorPersistence, NonFiniteSegmentSampleIsRejectedAndTargetUntouched) {
+  const config::Config c = testing::DaemonTestConfig();
+  stats::Accumulator a(c, c.sync.rate_hz);
+  FeedDrive(a, 0, 0, 150);
+  std::string bytes = a.Serialize();
+  const float nan = std::nanf("");
+  std::memcpy(bytes.data() + bytes.size() - sizeof(float), &nan, sizeof nan);  // last sample's a_x
+  stats::Accumulator b(c, c.sync.rate_hz);
+  FeedDrive(b, 0, 0, 150);
+  const std::string before = b.Serialize();
+  EXPECT_THROW(b.Restore(bytes), Error);
+  EXPECT_EQ(b.Serialize(), before);
+  EXPECT_THROW(b.Restore(bytes.substr(0, bytes.size() / 2)), Error);
+}
+
+TEST_F(StateTest, FileRoundTripsEveryLearnedValue) {
+  const app::LearnedState st = MakeState();
+  const app::LearnedState back = app::DecodeState(app::EncodeState(st), config_.vehicle.name);
+  EXPECT_EQ(back.accumulator, st.accumulator);
+  EXPECT_EQ(back.adequacy, st.adequacy);
+  EXPECT_EQ(back.data_time_ns, st.data_time_ns);
+  EXPECT_EQ(back.identifications, 3);
+  ASSERT_TRUE(back.last_estimate);
+  EXPECT_EQ(back.last_estimate->fit.eg_rad_per_mps2, st.last_estimate->fit.eg_rad_per_mps2);
+  EXPECT_EQ(back.last_estimate->fit.params[5].value, 14.8);
+  EXPECT_TRUE(back.last_estimate->fit.params[0].fixed);
+  EXPECT_EQ(back.last_estimate->fit.reason, "line one line two");
+}
+
+TEST_F(StateTest, FlippedPayloadByteIsCorrupt) {
+  std::string bytes = app::EncodeState(MakeState());
+  bytes[bytes.size() - 100] ^= 0x01;
+  try {
+    app::DecodeState(bytes, config_.vehicle.name);
+    FAIL() << "no error";
+  } catch (const app::StateFileError& e) {
+    EXPECT_EQ(e.kind(), app::StateFileError::Kind::kCorrupt);
+    EXPECT_NE(std::string(e.what()).find("checksum"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(StateTest, TruncatedFileIsCorrupt) {
+  const std::string bytes = app::EncodeState(MakeState());
+  for (size_t n : {size_t{0}, size_t{10}, bytes.size() / 2, bytes.size() - 1}) {
+    try {
+      app::DecodeState(bytes.substr(0, n), config_.vehicle.name);
+      FAIL() << "no error at " << n;
+    } catch (const app::StateFileError& e) {
+      EXPECT_EQ(e.kind(), app::StateFileError::Kind::kCorrupt) << n;
+    }
+  }
+}
+
+TEST_F(StateTest, OtherVehicleIsForeignAndOtherVersionIncompatible) {
+  const std::string bytes = app::EncodeState(MakeState());
+  try {
+    app::DecodeState(bytes, "another-car");
+    FAIL();
+  } catch (const app::StateFileError& e) {
+    EXPECT_EQ(e.kind(), app::StateFileError::Kind::kForeign);
+  }
+  std::string v2 = bytes;
+  v2.replace(0, 13, "NDSID-STATE 2");
+  try {
+    app::DecodeState(v2, config_.vehicle.name);
+    FAIL();
+  } catch (const app::StateFileError& e) {
+    EXPECT_EQ(e.kind(), app::StateFileError::Kind::kIncompatible);
+  }
+}
+
+TEST_F(StateTest, StoreMovesCorruptFileAsideAndStartsFresh) {
+  app::StateStore store(dir_.string(), config_.vehicle.name);
+  store.Save(MakeState());
+  ASSERT_TRUE(store.Load().state);
+  std::string bytes = ReadWholeFile(store.path());
+  bytes[bytes.size() / 2] ^= 0x20;
+  WriteFileAtomically(store.path(), bytes);
+  const auto r = store.Load();
+  EXPECT_FALSE(r.state);
+  EXPECT_FALSE(fs::exists(store.path()));
+  int corrupt = 0;
+  for (const auto& e : fs::directory_iterator(dir_)) corrupt += e.path().filename().string().find(".corrupt-") != std::string::npos;
+  EXPECT_EQ(corrupt, 1) << r.message;
+}
+
+TEST_F(StateTest, StoreNeverLoadsAnotherVehiclesFileAndKeepsIt) {
+  // Two names that map to the same file name: the header tells them apart.
+  app::StateStore mine(dir_.string(), "car/1");
+  app::StateStore theirs(dir_.string(), "car:1");
+  ASSERT_EQ(mine.path(), theirs.path());
+  app::LearnedState st = MakeState();
+  st.vehicle = "car:1";
+  theirs.Save(st);
+  const auto r = mine.Load();
+  EXPECT_FALSE(r.state);
+  EXPECT_NE(r.message.find("car:1"), std::string::npos) << r.message;
+  bool kept = false;
+  for (const auto& e : fs::directory_iterator(dir_)) kept |= e.path().filename().string().find(".foreign-") != std::string::npos;
+  EXPECT_TRUE(kept);
+}
+
+TEST_F(StateTest, RestoreDropsEstimateOutsideParameterBoxButKeepsStatistics) {
+  const dbc::Database db = dbc::ParseDbcFile(config_.dbc);
+  app::Pipeline pipeline(config_, db);
+  app::LearnedState st = MakeState();
+  st.last_estimate->fit.params[model::kSteerRatio].value = -14.8;  // openpilot's poisoned cache
+  std::string dropped;
+  app::RestoreState(pipeline, config_, st, dropped);
+  EXPECT_NE(dropped.find("is = -14.8 outside"), std::string::npos) << dropped;
+  EXPECT_FALSE(pipeline.last_estimate());
+  EXPECT_GT(pipeline.accumulator().gated_hours(), 0.05);
+}
+
+TEST_F(StateTest, RestoreKeepsPlausibleEstimateAndWaitsForNewData) {
+  const dbc::Database db = dbc::ParseDbcFile(config_.dbc);
+  app::Pipeline pipeline(config_, db);
+  const app::LearnedState st = MakeState();
+  std::string dropped;
+  app::RestoreState(pipeline, config_, st, dropped);
+  EXPECT_EQ(dropped, "");
+  ASSERT_TRUE(pipeline.last_estimate());
+  EXPECT_EQ(pipeline.last_estimate()->fit.eg_rad_per_mps2, st.last_estimate->fit.eg_rad_per_mps2);
+  EXPECT_EQ(pipeline.adequacy().history().size(), 1u);
+  EXPECT_FALSE(pipeline.IdentificationDue());  // no new gated data since the restored fit
+}
+
+TEST_F(StateTest, RestoreRejectsNonFiniteStatisticsAsCorrupt) {
+  const dbc::Database db = dbc::ParseDbcFile(config_.dbc);
+  app::Pipeline pipeline(config_, db);
+  app::LearnedState st = MakeState();
+  adequacy::Tracker tracker(config_.adequacy);
+  tracker.Update(0.1, std::nan(""), 1e-5, stats::Coverage{});
+  st.adequacy = tracker.Serialize();
+  std::string dropped;
+  try {
+    app::RestoreState(pipeline, config_, st, dropped);
+    FAIL();
+  } catch (const app::StateFileError& e) {
+    EXPECT_EQ(e.kind(), app::StateFileError::Kind::kCorrupt);
+  }
+  EXPECT_EQ(pipeline.accumulator().gated_hours(), 0.0);
+}
+
+}  // namespace
+}  // namespace ndsid

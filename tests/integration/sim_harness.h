@@ -1,0 +1,92 @@
+// Integration-test harness: simulate drives of a known vehicle with the simulator, write them
+// as the bus carries them (candump log, example DBC), replay the log through the real pipeline
+// (reader -> decoder -> sync -> gate -> statistics) and hand back the window and the truth.
+#pragma once
+
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ndsid/config/config.h"
+#include "ndsid/config/simulation_config.h"
+#include "ndsid/dbc/dbc_parser.h"
+#include "ndsid/model/model_spec.h"
+#include "ndsid/sim/candump_writer.h"
+#include "ndsid/sim/simulator.h"
+#include "pipeline.h"
+#include "replay_runner.h"
+
+namespace ndsid::testing {
+
+struct SimulatedRun {
+  config::SimulationConfig sim;
+  std::unique_ptr<config::Config> config;
+  std::unique_ptr<dbc::Database> db;
+  std::unique_ptr<app::Pipeline> pipeline;
+  app::WindowSnapshot window;
+  double eg_truth = 0;                // rad/(m/s^2)
+  std::vector<double> truth_base;     // m, Jz, cv, ch, lv, is
+};
+
+inline std::string TempDir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("ndsid_it_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+// effects: simulator assignments such as "steer_offset_deg=1.5".
+inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, double hours,
+                                      const std::vector<std::string>& effects = {},
+                                      const std::vector<std::string>& model_effects = {}) {
+  SimulatedRun run;
+  run.sim.seed = seed;
+  run.sim.duration.hours = hours;
+  for (const auto& e : effects) config::ApplyEffect(run.sim.effects, e);
+  const std::string src = NDSID_SOURCE_DIR;
+  run.config = std::make_unique<config::Config>(config::LoadConfig(src + "/config/example_vehicle.yaml"));
+  run.config->model_effects = model_effects;
+  run.db = std::make_unique<dbc::Database>(dbc::ParseDbcFile(run.config->dbc));
+  const std::string log = TempDir(name) + "/drive.log";
+  {
+    const sim::SimulationResult result = sim::Simulate(run.sim);
+    sim::WriteCandumpLog(result, *run.db, log);
+  }
+  const auto& v = run.sim.vehicle;
+  run.truth_base = {v.mass_kg, v.yaw_inertia_kgm2, v.cornering_stiffness_front_npr, v.cornering_stiffness_rear_npr,
+                    v.cg_to_front_m, v.steering_ratio};
+  run.eg_truth = model::SelfSteerGradient(model::Params<double>::FromArray(run.truth_base.data()), v.wheelbase_m);
+  run.pipeline = std::make_unique<app::Pipeline>(*run.config, *run.db);
+  app::ReplayOptions opt;
+  opt.logs = {log};
+  opt.identify_periodically = false;
+  app::RunReplay(*run.pipeline, *run.config, opt);
+  run.window = run.pipeline->Snapshot();
+  std::filesystem::remove_all(std::filesystem::path(log).parent_path());
+  return run;
+}
+
+// The model's parameter vector at the simulator's truth: base parameters and, for each effect
+// of `spec`, the simulated magnitude converted to the model's parameter (neutral if not simulated).
+inline std::vector<double> TruthVector(const SimulatedRun& run, const model::ModelSpec& spec) {
+  std::vector<double> p = run.truth_base;
+  const auto& e = run.sim.effects;
+  for (int i = model::kNumParams; i < spec.num_params(); ++i) {
+    const std::string n = spec.param_name(i);
+    double v = spec.effect_param(i)->neutral;
+    if (n == "accel_bias_mps2") v = e.accel_bias_mps2;
+    if (n == "steer_offset_rad") v = e.steer_offset_deg * M_PI / 180;
+    if (n == "roll_gradient_rad_per_mps2") v = e.roll_gradient_deg_per_g * M_PI / 180 / 9.81;
+    if (n == "superelevation") v = e.superelevation_pct / 100;
+    if (n == "lever_arm_m") v = e.lever_arm_m;
+    if (n == "tyre_inv_mu_sq" && e.tyre_mu > 0) v = 1.0 / (e.tyre_mu * e.tyre_mu);
+    if (n == "relaxation_length_m" && e.relaxation_length_m > 0) v = e.relaxation_length_m;
+    if (n == "steer_delay_s") v = e.steer_delay_ms / 1000;
+    if (n == "speed_scale") v = e.speed_scale_pct / 100;
+    p.push_back(v);
+  }
+  return p;
+}
+
+}  // namespace ndsid::testing
