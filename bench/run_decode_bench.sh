@@ -14,7 +14,7 @@
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-BUILD_DIR="${BUILD_DIR:-$ROOT/build-can}"
+BUILD_DIR="${BUILD_DIR:-${NDSID_BUILD_DIR:-$ROOT/build}}"
 PYTHON="${PYTHON:-$ROOT/.venv/bin/python3}"
 FRAMES="${1:-2000000}"
 PY_FRAMES="${2:-$FRAMES}"

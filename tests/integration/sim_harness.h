@@ -36,10 +36,11 @@ inline std::string TempDir(const std::string& name) {
   return dir.string();
 }
 
-// effects: simulator assignments such as "steer_offset_deg=1.5".
+// effects: simulator assignments such as "steer_offset_deg=1.5"; model_effects: the model to fit
+// (default: the example vehicle's, base + road_bank).
 inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, double hours,
                                       const std::vector<std::string>& effects = {},
-                                      const std::vector<std::string>& model_effects = {}) {
+                                      const std::vector<std::string>& model_effects = {"road_bank"}) {
   SimulatedRun run;
   run.sim.seed = seed;
   run.sim.duration.hours = hours;
@@ -84,6 +85,7 @@ inline std::vector<double> TruthVector(const SimulatedRun& run, const model::Mod
     if (n == "relaxation_length_m" && e.relaxation_length_m > 0) v = e.relaxation_length_m;
     if (n == "steer_delay_s") v = e.steer_delay_ms / 1000;
     if (n == "speed_scale") v = e.speed_scale_pct / 100;
+    if (n == "road_bank_gain") v = 1.0;  // the simulated road is banked: the bank as measured
     p.push_back(v);
   }
   return p;
