@@ -14,8 +14,9 @@ class SteerDelay final : public EffectImpl<SteerDelay> {
                     {{"steer_delay_s", "s", -0.1, 0.3, 0.0, 0.0, 0.08}}, 0}) {}
   template <class T>
   void InputsT(const T* eta, const InputSeries& s, size_t k, ModelInputs<T>& u) const {
-    // Keep the speed as is; shift only the steering (fractional sample index).
-    u.steer_rad = s.Steer(T(static_cast<double>(k)) + eta[0] / T(s.dt_s));
+    // Keep the speed as is; shift only the steering (fractional sample index). Added as the
+    // change the shift makes, so that earlier input effects (steer_offset) are kept.
+    u.steer_rad += s.Steer(T(static_cast<double>(k)) + eta[0] / T(s.dt_s)) - T(s.steer(k));
   }
 };
 

@@ -1,0 +1,221 @@
+#!/usr/bin/env python3
+"""Plots for `ndsid compare` and `ndsid diagnose` (docs/model-workflow.md).
+
+    model_report_plots.py compare DIR   reads compare.csv + summary.json, writes timeseries.png,
+                                        residual_bins.png, steady_state.png, coverage.png
+    model_report_plots.py ladder DIR    reads diagnosis.json, writes error_ladder.png
+"""
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+COLORS = {"model": "tab:red", "baseline": "tab:blue"}
+
+
+def load_compare(folder: Path):
+    summary = json.loads((folder / "summary.json").read_text())
+    with open(folder / "compare.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    return summary, rows
+
+
+def fnum(s):
+    return float(s) if s not in ("", None) else math.nan
+
+
+def plot_timeseries(folder, summary, rows, labels):
+    # The held-out chunk with the largest a_y spread (falls back to training when none is held out).
+    chunks = {}
+    for r in rows:
+        chunks.setdefault((r["set"], int(r["chunk"])), []).append(r)
+    def spread(rs):
+        ys = [fnum(r["ay_meas_mps2"]) for r in rs]
+        m = sum(ys) / len(ys)
+        return sum((y - m) ** 2 for y in ys) / len(ys)
+    pool = [k for k in chunks if k[0] == "validation"] or list(chunks)
+    key = max(pool, key=lambda k: spread(chunks[k]))
+    rs = chunks[key][:3000]  # at most 60 s
+    t0 = fnum(rs[0]["t_s"])
+    t = [fnum(r["t_s"]) - t0 for r in rs]
+    fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+    axes[0].plot(t, [fnum(r["ay_meas_mps2"]) for r in rs], "k", lw=0.8, label="measured")
+    for lab in labels:
+        m = next(x for x in summary["models"] if x["label"] == lab)
+        axes[0].plot(t, [fnum(r[f"ay_{lab}_mps2"]) for r in rs], color=COLORS.get(lab), lw=1.0,
+                     label=f"{lab}: {m['model']}")
+        axes[1].plot(t, [fnum(r[f"resid_{lab}_mps2"]) for r in rs], color=COLORS.get(lab), lw=0.8, label=lab)
+    axes[0].set_ylabel("a_y [m/s²]")
+    axes[0].legend(fontsize=8)
+    axes[1].axhline(0, color="grey", lw=0.5)
+    axes[1].set_ylabel("residual [m/s²]")
+    axes[1].legend(fontsize=8)
+    axes[2].plot(t, [fnum(r["speed_mps"]) for r in rs], "g", lw=0.8)
+    axes[2].set_ylabel("v [m/s]", color="g")
+    ax2 = axes[2].twinx()
+    ax2.plot(t, [math.degrees(fnum(r["steer_rad"])) for r in rs], "m", lw=0.8)
+    ax2.set_ylabel("steering wheel [deg]", color="m")
+    axes[2].set_xlabel(f"t [s] (drive {rs[0]['drive']}, chunk {key[1]}, {key[0]})")
+    for ax in axes[:2]:
+        ax.grid(True, alpha=0.3)
+    fig.suptitle("Measured vs modelled lateral acceleration (held-out stretch)")
+    fig.tight_layout()
+    fig.savefig(folder / "timeseries.png", dpi=100)
+    plt.close(fig)
+
+
+def binned(xs, es, edges):
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = [e for x, e in zip(xs, es) if lo <= x < hi]
+        if len(sel) < 50:
+            continue
+        m = sum(sel) / len(sel)
+        sd = math.sqrt(sum((e - m) ** 2 for e in sel) / len(sel))
+        out.append((0.5 * (lo + hi), m, sd))
+    return out
+
+
+def plot_residual_bins(folder, summary, rows, labels):
+    scored = [r for r in rows if r["scored"] == "1"]
+    specs = [("ay_meas_mps2", "a_y [m/s²]", [x * 0.5 for x in range(-8, 9)], lambda v: v),
+             ("speed_mps", "v [m/s]", list(range(5, 45, 2)), lambda v: v),
+             ("steer_rate_radps", "steering rate [rad/s]", [x * 0.05 for x in range(-12, 13)], lambda v: v),
+             ("ax_mps2", "a_x [m/s²]", [x * 0.25 for x in range(-12, 9)], lambda v: v)]
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7))
+    floor = summary["noise_floor_mps2"]
+    for ax, (col, xlabel, edges, f) in zip(axes.flat, specs):
+        xs = [f(fnum(r[col])) for r in scored]
+        for i, lab in enumerate(labels):
+            es = [fnum(r[f"resid_{lab}_mps2"]) for r in scored]
+            b = binned(xs, es, edges)
+            if b:
+                off = (edges[1] - edges[0]) * 0.12 * (i - 0.5)
+                ax.errorbar([c + off for c, _, _ in b], [m for _, m, _ in b], yerr=[s for _, _, s in b], fmt="o-",
+                            ms=3, capsize=2, color=COLORS.get(lab), label=lab)
+        ax.axhspan(-floor, floor, color="grey", alpha=0.2, label="± noise floor")
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("residual [m/s²]")
+        ax.grid(True, alpha=0.3)
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle("Residual e = a_y,meas − a_y,model: binned mean ± standard deviation")
+    fig.tight_layout()
+    fig.savefig(folder / "residual_bins.png", dpi=100)
+    plt.close(fig)
+
+
+def plot_steady_state(folder, summary, rows, labels):
+    l = summary["wheelbase_m"]
+    model = next(x for x in summary["models"] if x["label"] == labels[0])
+    params = {p["name"]: p["value"] for p in model["parameters"]}
+    i_s = params["is"]
+    pts = []
+    for r in rows:
+        if r["scored"] != "1" or abs(fnum(r["steer_rate_radps"])) >= 0.05:
+            continue
+        v, ay, yaw = fnum(r["speed_mps"]), fnum(r["ay_meas_mps2"]), fnum(r["yaw_rate_meas_radps"])
+        kin = l * yaw / v if not math.isnan(yaw) else l * ay / v ** 2
+        pts.append((ay, fnum(r["steer_rad"]) / i_s - kin))
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    if pts:
+        step = max(1, len(pts) // 20000)
+        ax.plot([p[0] for p in pts[::step]], [math.degrees(p[1]) for p in pts[::step]], ".", ms=1, color="grey",
+                alpha=0.3, label="quasi-steady samples")
+        b = binned([p[0] for p in pts], [p[1] for p in pts], [x * 0.25 for x in range(-16, 17)])
+        ax.plot([c for c, _, _ in b], [math.degrees(m) for _, m, _ in b], "ko", ms=4, label="binned mean")
+    xs = [-4, 4]
+    for lab in labels:
+        m = next(x for x in summary["models"] if x["label"] == lab)
+        p = {q["name"]: q["value"] for q in m["parameters"]}
+        d0 = p.get("steer_offset_rad", 0.0) / p["is"]
+        eg = m["eg_rad_per_mps2"]
+        ax.plot(xs, [math.degrees(eg * x + d0) for x in xs], color=COLORS.get(lab), lw=1.5,
+                label=f"{lab}: EG = {m['eg_deg_per_g']:.2f} deg/g" + (f", d0/is = {math.degrees(d0):.3f} deg" if d0 else ""))
+    ax.set_xlabel("a_y [m/s²]")
+    ax.set_ylabel("d_sw/is − l·r/v [road-wheel angle, deg]" + ("" if pts and not math.isnan(fnum(rows[0]["yaw_rate_meas_radps"])) else " (or − l·a_y/v²)"))
+    ax.set_ylim(-1.5, 1.5)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(f"Steady-state steering against lateral acceleration (is = {i_s:.3f} of the model)")
+    fig.tight_layout()
+    fig.savefig(folder / "steady_state.png", dpi=100)
+    plt.close(fig)
+
+
+def plot_coverage(folder, rows):
+    scored = [r for r in rows if r["scored"] == "1"]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    ax_vals = [fnum(r["ax_mps2"]) for r in scored]
+    ay_vals = [fnum(r["ay_meas_mps2"]) for r in scored]
+    ok = [(a, b) for a, b in zip(ax_vals, ay_vals) if not math.isnan(a)]
+    if ok:
+        h = axes[0].hist2d([a for a, _ in ok], [b for _, b in ok], bins=[40, 40], range=[[-5, 5], [-5, 5]], cmin=1,
+                           cmap="viridis", norm=matplotlib.colors.LogNorm())
+        fig.colorbar(h[3], ax=axes[0], label="samples")
+    t = [i * 2 * math.pi / 200 for i in range(201)]
+    axes[0].plot([4 * math.cos(a) for a in t], [4 * math.sin(a) for a in t], "r--", lw=0.8, label="4 m/s² (linear range)")
+    axes[0].set_xlabel("a_x [m/s²]")
+    axes[0].set_ylabel("a_y [m/s²]")
+    axes[0].set_aspect("equal")
+    axes[0].legend(fontsize=8)
+    axes[0].set_title("g-g diagram")
+    h = axes[1].hist2d([fnum(r["speed_mps"]) for r in scored], ay_vals, bins=[40, 40], range=[[0, 45], [-5, 5]],
+                       cmin=1, cmap="viridis", norm=matplotlib.colors.LogNorm())
+    fig.colorbar(h[3], ax=axes[1], label="samples")
+    axes[1].set_xlabel("v [m/s]")
+    axes[1].set_ylabel("a_y [m/s²]")
+    axes[1].set_title("speed vs lateral acceleration")
+    fig.tight_layout()
+    fig.savefig(folder / "coverage.png", dpi=100)
+    plt.close(fig)
+
+
+def plot_ladder(folder: Path):
+    d = json.loads((folder / "diagnosis.json").read_text())
+    rungs = d.get("ladder", [])
+    if not rungs:
+        return
+    names = ["start" if not r["added"] else "+ " + r["added"] for r in rungs]
+    x = list(range(len(rungs)))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    axes[0].plot(x, [r["rmse_train_mps2"] for r in rungs], "o-", label="training")
+    axes[0].plot(x, [r["rmse_validation_mps2"] for r in rungs], "s-", label="held-out")
+    axes[0].set_ylabel("RMSE [m/s²]")
+    axes[0].legend()
+    axes[1].errorbar(x, [r["eg_deg_per_g"] for r in rungs], yerr=[r["eg_se_deg_per_g"] for r in rungs], fmt="o-",
+                     capsize=3)
+    axes[1].set_ylabel("EG ± 1σ [deg/g]")
+    for ax in axes:
+        ax.set_xticks(x)
+        ax.set_xticklabels(names, rotation=20)
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(f"Error ladder ({d.get('data', '')}): stop — {d.get('stop_reason', '')}")
+    fig.tight_layout()
+    fig.savefig(folder / "error_ladder.png", dpi=100)
+    plt.close(fig)
+
+
+def main():
+    mode, folder = sys.argv[1], Path(sys.argv[2])
+    if mode == "compare":
+        summary, rows = load_compare(folder)
+        labels = [m["label"] for m in summary["models"]]
+        plot_timeseries(folder, summary, rows, labels)
+        plot_residual_bins(folder, summary, rows, labels)
+        plot_steady_state(folder, summary, rows, labels)
+        plot_coverage(folder, rows)
+    elif mode == "ladder":
+        plot_ladder(folder)
+    else:
+        sys.exit(f"unknown mode {mode}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,230 @@
+// Outputs of the two fixture runs on replay/steer_offset (hidden steering offset d0 = 1.5 deg
+// at the steering wheel, truth.yaml), training on drive 2 and holding out drive 0:
+//   compare --effects steer_offset (baseline: base single-track)  -> compare_out/
+//   diagnose --z-threshold 3 --apply on a copy of the config      -> diagnose_out/, applied_vehicle.yaml
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "model_report.h"
+#include "ndsid/common/atomic_file.h"
+#include "ndsid/model/simulate.h"
+
+namespace ndsid::app {
+namespace {
+namespace fs = std::filesystem;
+
+const fs::path kOut = NDSID_APP_OUT;
+constexpr double kTrueOffsetRad = 1.5 * M_PI / 180.0;  // truth.yaml: steer_offset_deg 1.5
+constexpr double kTrueSteerRatio = 14.8, kWheelbase = 2.648, kTrueEg = 0.0074550604;
+
+struct Csv {
+  std::map<std::string, size_t> col;
+  std::vector<std::vector<std::string>> rows;
+  double num(size_t r, const std::string& c) const {
+    const std::string& s = rows[r][col.at(c)];
+    return s.empty() ? NAN : std::stod(s);
+  }
+  const std::string& str(size_t r, const std::string& c) const { return rows[r][col.at(c)]; }
+};
+
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  bool quoted = false;
+  for (char ch : line) {
+    if (ch == '"') quoted = !quoted;
+    else if (ch == ',' && !quoted) out.push_back(cur), cur.clear();
+    else cur += ch;
+  }
+  out.push_back(cur);
+  return out;
+}
+
+Csv ReadCsv(const fs::path& p) {
+  Csv csv;
+  std::ifstream in(p);
+  std::string line;
+  std::getline(in, line);
+  const auto header = SplitCsvLine(line);
+  for (size_t i = 0; i < header.size(); ++i) csv.col[header[i]] = i;
+  while (std::getline(in, line)) csv.rows.push_back(SplitCsvLine(line));
+  return csv;
+}
+
+const Csv& CompareCsv() {
+  static const Csv csv = ReadCsv(kOut / "compare_out" / "compare.csv");
+  return csv;
+}
+nlohmann::json ReadJson(const fs::path& p) { return nlohmann::json::parse(ReadWholeFile(p.string())); }
+
+// --- diagnose -----------------------------------------------------------------------------------
+TEST(Diagnose, RanksSteerOffsetFirstOnSteerOffsetData) {
+  const auto j = ReadJson(kOut / "diagnose_out" / "diagnosis.json");
+  ASSERT_FALSE(j["ranking"].empty());
+  EXPECT_EQ(j["ranking"][0]["effect"], "steer_offset") << j["ranking"].dump(1);
+  // The one-step estimate from the base fit is already near the hidden offset.
+  EXPECT_NEAR(j["ranking"][0]["one_step"].get<double>(), kTrueOffsetRad, 0.15 * kTrueOffsetRad);
+}
+
+TEST(Diagnose, LadderAddsSteerOffsetAndHeldOutRmseFalls) {
+  const auto j = ReadJson(kOut / "diagnose_out" / "diagnosis.json");
+  const auto& ladder = j["ladder"];
+  ASSERT_GE(ladder.size(), 2u) << j.dump(1);
+  EXPECT_EQ(ladder[1]["added"], "steer_offset");
+  const double before = ladder[0]["rmse_validation_mps2"], after = ladder[1]["rmse_validation_mps2"];
+  EXPECT_LT(after, 0.95 * before) << before << " -> " << after;
+  EXPECT_LT(ladder[1]["delta_bic"].get<double>(), 0.0);
+  // EG moves towards the truth (4.19 deg/g) once the offset is modelled.
+  const double truth_deg_per_g = model::EgToDegPerG(kTrueEg);
+  EXPECT_LT(std::abs(ladder[1]["eg_deg_per_g"].get<double>() - truth_deg_per_g),
+            std::abs(ladder[0]["eg_deg_per_g"].get<double>() - truth_deg_per_g));
+  EXPECT_EQ(j["final_effects"][0], "steer_offset");
+}
+
+TEST(Diagnose, ApplyWritesLadderEffectsIntoConfigAndChangesNothingElse) {
+  const std::string before = ReadWholeFile(NDSID_APP_PRISTINE);
+  const std::string after = ReadWholeFile((kOut / "applied_vehicle.yaml").string());
+  const config::Config cfg = config::LoadConfig((kOut / "applied_vehicle.yaml").string());
+  const auto j = ReadJson(kOut / "diagnose_out" / "diagnosis.json");
+  EXPECT_EQ(cfg.model_effects, j["final_effects"].get<std::vector<std::string>>());
+  std::stringstream a(before), b(after);
+  std::string la, lb;
+  int changed = 0;
+  while (std::getline(a, la) && std::getline(b, lb)) {
+    if (la != lb) {
+      ++changed;
+      EXPECT_NE(lb.find("effects: [steer_offset]"), std::string::npos) << lb;
+      EXPECT_NE(lb.find("# effects added to the base single-track model"), std::string::npos) << lb;
+    }
+  }
+  EXPECT_EQ(changed, 1);
+  EXPECT_EQ(std::count(before.begin(), before.end(), '\n'), std::count(after.begin(), after.end(), '\n'));
+  EXPECT_NE(ReadWholeFile((kOut / "diagnose_out.txt").string()).find("--apply: "), std::string::npos);
+}
+
+TEST(Diagnose, WritesMarkdownAndLadderPlot) {
+  const std::string md = ReadWholeFile((kOut / "diagnose_out" / "diagnosis.md").string());
+  EXPECT_NE(md.find("## Error ladder"), std::string::npos);
+  EXPECT_NE(md.find("single-track + steer_offset"), std::string::npos);
+  if (!fs::exists(fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3")) GTEST_SKIP() << "no project venv";
+  EXPECT_GT(fs::file_size(kOut / "diagnose_out" / "error_ladder.png"), 10000u);
+}
+
+// --- compare ------------------------------------------------------------------------------------
+TEST(Compare, ResidualIsMeasuredMinusModelledAndReportedRmseMatchesCsv) {
+  const Csv& c = CompareCsv();
+  ASSERT_GT(c.rows.size(), 50000u);
+  const auto j = ReadJson(kOut / "compare_out" / "summary.json");
+  for (const std::string m : {"model", "baseline"}) {
+    double see[2] = {0, 0};
+    size_t n[2] = {0, 0};
+    for (size_t r = 0; r < c.rows.size(); ++r) {
+      const double e = c.num(r, "resid_" + m + "_mps2");
+      ASSERT_NEAR(e, c.num(r, "ay_meas_mps2") - c.num(r, "ay_" + m + "_mps2"), 1e-6) << "row " << r;
+      if (c.str(r, "scored") != "1") continue;
+      const int v = c.str(r, "set") == "validation";
+      see[v] += e * e, ++n[v];
+    }
+    const auto& jm = j["models"][m == "model" ? 0 : 1];
+    EXPECT_NEAR(std::sqrt(see[0] / n[0]), jm["train"]["rmse_mps2"].get<double>(), 1e-5) << m;
+    EXPECT_NEAR(std::sqrt(see[1] / n[1]), jm["validation"]["rmse_mps2"].get<double>(), 1e-5) << m;
+    // ... and what the identifier itself computed (the same chunks and burn-in).
+    EXPECT_NEAR(std::sqrt(see[0] / n[0]), jm["fit_rmse_train_mps2"].get<double>(), 1e-4) << m;
+    EXPECT_NEAR(std::sqrt(see[1] / n[1]), jm["fit_rmse_validation_mps2"].get<double>(), 1e-4) << m;
+  }
+}
+
+TEST(Compare, ModelledAyEqualsIndependentResimulationOfTheChunk) {
+  const Csv& c = CompareCsv();
+  const auto j = ReadJson(kOut / "compare_out" / "summary.json");
+  for (int mi = 0; mi < 2; ++mi) {
+    const auto& jm = j["models"][mi];
+    const std::string label = jm["label"];
+    const model::ModelSpec spec = model::ModelSpec::FromNames(jm["effects"].get<std::vector<std::string>>());
+    const std::vector<double> params = jm["values"].get<std::vector<double>>();
+    ASSERT_EQ(static_cast<int>(params.size()), spec.num_params());
+    // Chunks 0, 5 and the last: rows of one chunk are consecutive.
+    const int last_chunk = std::stoi(c.rows.back()[c.col.at("chunk")]);
+    for (int chunk : {0, 5, last_chunk}) {
+      std::vector<float> steer, speed;
+      std::vector<double> expected;
+      for (size_t r = 0; r < c.rows.size(); ++r) {
+        if (std::stoi(c.str(r, "chunk")) != chunk) continue;
+        steer.push_back(static_cast<float>(c.num(r, "steer_rad")));
+        speed.push_back(static_cast<float>(c.num(r, "speed_mps")));
+        expected.push_back(c.num(r, "ay_" + label + "_mps2"));
+      }
+      ASSERT_GT(steer.size(), 100u);
+      const model::InputSeries in{steer.data(), speed.data(), 1, steer.size(), 0.02};
+      std::vector<double> a(steer.size());
+      model::SimulateModel(spec, params.data(), j["wheelbase_m"].get<double>(), in, a.data());
+      double worst = 0;
+      for (size_t k = 0; k < a.size(); ++k) worst = std::max(worst, std::abs(a[k] - expected[k]));
+      EXPECT_LT(worst, 1e-6) << label << " chunk " << chunk;
+    }
+  }
+}
+
+struct BinRow {
+  std::string verdict;
+  double bias = 0;
+};
+std::map<std::string, BinRow> Bins() {
+  std::map<std::string, BinRow> out;
+  const Csv b = ReadCsv(kOut / "compare_out" / "bins.csv");
+  for (size_t r = 0; r < b.rows.size(); ++r) {
+    out[b.str(r, "group") + "|" + b.str(r, "label") + "|" + b.str(r, "model")] = {b.str(r, "verdict"), b.num(r, "bias_mps2")};
+  }
+  return out;
+}
+
+TEST(Compare, HighSpeedStraightBinsFailForBaseModelButNotWithSteerOffset) {
+  const auto bins = Bins();
+  for (const std::string band : {"20-30", ">30"}) {
+    const std::string key = "straight |a_y|<0.5, v [m/s]|" + band;
+    EXPECT_EQ(bins.at(key + "|baseline").verdict, "FAIL bias") << band;
+    EXPECT_EQ(bins.at(key + "|model").verdict, "ok") << band;
+  }
+  // Low-speed straight driving hides the offset: the base model passes there.
+  EXPECT_NE(bins.at("straight |a_y|<0.5, v [m/s]|5-10|baseline").verdict, "FAIL bias");
+}
+
+TEST(Compare, BaseModelStraightLineBiasIsTheSteerOffsetSignature) {
+  // Steady state on a straight: e = -(d0/is) v^2/(l + EG v^2), averaged over the bin's samples.
+  const Csv& c = CompareCsv();
+  double sum_pred = 0;
+  size_t n = 0;
+  for (size_t r = 0; r < c.rows.size(); ++r) {
+    if (c.str(r, "scored") != "1") continue;
+    const double v = c.num(r, "speed_mps");
+    if (std::abs(c.num(r, "ay_meas_mps2")) >= 0.5 || v < 30) continue;
+    sum_pred += -(kTrueOffsetRad / kTrueSteerRatio) * v * v / (kWheelbase + kTrueEg * v * v);
+    ++n;
+  }
+  ASSERT_GT(n, 1000u);
+  const double predicted = sum_pred / n;
+  const double measured = Bins().at("straight |a_y|<0.5, v [m/s]|>30|baseline").bias;
+  EXPECT_NEAR(measured, predicted, 0.2 * std::abs(predicted)) << "predicted " << predicted;
+}
+
+TEST(Compare, HtmlReportIsOfflineAndLinksExistingPlots) {
+  const fs::path dir = kOut / "compare_out";
+  const std::string html = ReadWholeFile((dir / "report.html").string());
+  EXPECT_EQ(html.find("http://"), std::string::npos);
+  EXPECT_EQ(html.find("https://"), std::string::npos);
+  EXPECT_NE(html.find("Where it fails"), std::string::npos);
+  if (!fs::exists(fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3")) GTEST_SKIP() << "no project venv";
+  for (const char* png : {"timeseries.png", "residual_bins.png", "steady_state.png", "coverage.png"}) {
+    EXPECT_NE(html.find(std::string("src=\"") + png + "\""), std::string::npos) << png;
+    EXPECT_GT(fs::file_size(dir / png), 10000u) << png;
+  }
+}
+
+}  // namespace
+}  // namespace ndsid::app

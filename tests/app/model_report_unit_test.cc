@@ -1,0 +1,200 @@
+// The pieces of `ndsid compare` / `ndsid diagnose` that need no replay: the config edit of
+// --apply, the failing-bin rule, the CLI's errors, and the model fix they depend on.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "model_report.h"
+#include "ndsid/common/atomic_file.h"
+#include "ndsid/model/simulate.h"
+
+namespace ndsid::app {
+namespace {
+namespace fs = std::filesystem;
+
+std::string Pristine() { return ReadWholeFile(NDSID_APP_PRISTINE); }
+
+// Lines of a that differ from b (same line count expected).
+std::vector<std::string> ChangedLines(const std::string& a, const std::string& b) {
+  std::stringstream sa(a), sb(b);
+  std::vector<std::string> out;
+  std::string la, lb;
+  while (std::getline(sa, la)) {
+    if (!std::getline(sb, lb) || la != lb) out.push_back(la);
+  }
+  return out;
+}
+
+TEST(SetModelEffects, ReplacesFlowListKeepingEveryOtherLineAndTheComment) {
+  const std::string before = Pristine();
+  std::string what;
+  const std::string after = SetModelEffects(before, {"steer_offset", "roll"}, NDSID_APP_PRISTINE, &what);
+  const auto changed = ChangedLines(after, before);
+  ASSERT_EQ(changed.size(), 1u) << after;
+  EXPECT_NE(changed[0].find("effects: [steer_offset, roll]"), std::string::npos) << changed[0];
+  EXPECT_NE(changed[0].find("# effects added to the base single-track model"), std::string::npos) << changed[0];
+  EXPECT_EQ(config::ParseConfig(after, NDSID_APP_PRISTINE).model_effects, (std::vector<std::string>{"steer_offset", "roll"}));
+  EXPECT_NE(what.find("[] -> [steer_offset, roll]"), std::string::npos) << what;
+}
+
+TEST(SetModelEffects, ReplacesBlockSequenceUnderModel) {
+  std::string text = Pristine();
+  const size_t at = text.find("  effects: []");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, std::string("  effects: []").size(), "  effects:\n    - accel_bias   # a comment\n    - roll");
+  ASSERT_EQ(config::ParseConfig(text, NDSID_APP_PRISTINE).model_effects, (std::vector<std::string>{"accel_bias", "roll"}));
+  std::string what;
+  const std::string after = SetModelEffects(text, {"steer_offset"}, NDSID_APP_PRISTINE, &what);
+  EXPECT_EQ(config::ParseConfig(after, NDSID_APP_PRISTINE).model_effects, std::vector<std::string>{"steer_offset"});
+  EXPECT_EQ(after.find("- roll"), std::string::npos);
+  EXPECT_NE(what.find("[accel_bias, roll] -> [steer_offset]"), std::string::npos) << what;
+}
+
+TEST(SetModelEffects, AddsModelSectionWhenMissing) {
+  std::string text = Pristine();
+  const size_t a = text.find("\nmodel:");
+  const size_t b = text.find("\nstate_dir:");
+  ASSERT_TRUE(a != std::string::npos && b != std::string::npos && a < b);
+  text.erase(a, b - a);
+  ASSERT_TRUE(config::ParseConfig(text, NDSID_APP_PRISTINE).model_effects.empty());
+  std::string what;
+  const std::string after = SetModelEffects(text, {"steer_offset"}, NDSID_APP_PRISTINE, &what);
+  EXPECT_EQ(config::ParseConfig(after, NDSID_APP_PRISTINE).model_effects, std::vector<std::string>{"steer_offset"});
+  EXPECT_EQ(after.substr(0, text.size()), text);  // appended, nothing before it touched
+  EXPECT_NE(what.find("added the model section"), std::string::npos);
+}
+
+TEST(SetModelEffects, RewritesOneLineModelMap) {
+  std::string text = Pristine();
+  const size_t a = text.find("\nmodel:");
+  const size_t b = text.find("\nstate_dir:");
+  text.replace(a, b - a, "\nmodel: {effects: [roll]}\n");
+  const std::string after = SetModelEffects(text, {"steer_offset", "accel_bias"}, NDSID_APP_PRISTINE, nullptr);
+  EXPECT_EQ(config::ParseConfig(after, NDSID_APP_PRISTINE).model_effects,
+            (std::vector<std::string>{"steer_offset", "accel_bias"}));
+}
+
+// --- the failing-bin rule ---------------------------------------------------------------------
+TEST(ComputeBin, FlagsBiasLargerThanClusteredErrorAndHalfNoiseFloor) {
+  std::vector<double> e;
+  std::vector<int> cl;
+  for (int c = 0; c < 10; ++c)
+    for (int k = 0; k < 100; ++k) e.push_back(-0.1 + 0.01 * ((k % 3) - 1)), cl.push_back(c);
+  const BinStats b = ComputeBin(e, cl, 0.05, 0.2);
+  EXPECT_EQ(b.verdict, BinVerdict::kFailBias);
+  EXPECT_NEAR(b.bias, -0.1, 1e-3);
+  EXPECT_EQ(b.clusters, 10);
+}
+
+TEST(ComputeBin, DoesNotFlagBiasThatChunksDisagreeOn) {
+  // Mean -0.02, but the chunks scatter by ±0.2 (a slowly varying road): not significant.
+  std::vector<double> e;
+  std::vector<int> cl;
+  for (int c = 0; c < 10; ++c)
+    for (int k = 0; k < 100; ++k) e.push_back(-0.02 + (c % 2 ? 0.2 : -0.2)), cl.push_back(c);
+  const BinStats b = ComputeBin(e, cl, 0.05, 0.25);
+  EXPECT_EQ(b.verdict, BinVerdict::kOk) << b.bias << " ± " << b.se;
+}
+
+TEST(ComputeBin, DoesNotFlagSignificantBiasBelowHalfTheNoiseFloor) {
+  std::vector<double> e(1000, 0.01);
+  std::vector<int> cl(1000);
+  for (int i = 0; i < 1000; ++i) cl[i] = i / 100, e[i] += 1e-3 * (i % 7);
+  EXPECT_EQ(ComputeBin(e, cl, 0.05, 0.1).verdict, BinVerdict::kOk);
+}
+
+TEST(ComputeBin, FlagsRmseAboveFactorOfOverall) {
+  std::vector<double> e;
+  std::vector<int> cl;
+  for (int i = 0; i < 1000; ++i) e.push_back(i % 2 ? 0.2 : -0.2), cl.push_back(i / 100);
+  EXPECT_EQ(ComputeBin(e, cl, 0.05, 0.1).verdict, BinVerdict::kFailRmse);
+  EXPECT_EQ(ComputeBin(e, cl, 0.05, 0.15).verdict, BinVerdict::kOk);
+}
+
+TEST(ComputeBin, LeavesBinsWithFewSamplesUnjudged) {
+  std::vector<double> e(kMinBinSamples - 1, 1.0);
+  std::vector<int> cl(e.size(), 0);
+  EXPECT_EQ(ComputeBin(e, cl, 0.05, 0.1).verdict, BinVerdict::kTooFew);
+}
+
+// --- the library fix the diagnosis depends on ---------------------------------------------------
+// steer_delay used to overwrite the steering input, discarding steer_offset applied before it:
+// in the diagnosis' all-candidates model steer_offset then had a zero sensitivity and ranked last.
+TEST(SteerDelay, KeepsTheSteerOffsetOfAnEarlierEffect) {
+  const model::ModelSpec with_delay = model::ModelSpec::FromNames({"steer_offset", "steer_delay"});
+  const model::ModelSpec offset_only = model::ModelSpec::FromNames({"steer_offset"});
+  std::vector<float> steer(500), speed(500, 25.0f);
+  for (size_t k = 0; k < steer.size(); ++k) steer[k] = 0.05f * static_cast<float>(std::sin(0.01 * k));
+  const model::InputSeries in{steer.data(), speed.data(), 1, steer.size(), 0.02};
+  const std::vector<double> p1 = {1900, 2700, 75000, 120000, 1.15, 14.8, 0.02, 0.0};
+  const std::vector<double> p2 = {1900, 2700, 75000, 120000, 1.15, 14.8, 0.02};
+  std::vector<double> a1(steer.size()), a2(steer.size());
+  model::SimulateModel(with_delay, p1.data(), 2.648, in, a1.data());
+  model::SimulateModel(offset_only, p2.data(), 2.648, in, a2.data());
+  for (size_t k = 0; k < a1.size(); k += 50) EXPECT_NEAR(a1[k], a2[k], 1e-9) << k;
+}
+
+// --- command-line errors ------------------------------------------------------------------------
+struct CliRun {
+  int code;
+  std::string output;
+};
+CliRun RunNdsid(const std::string& args, const std::string& env = "") {
+  const std::string cmd = env + " '" + std::string(NDSID_NDSID_EXE) + "' " + args + " 2>&1";
+  CliRun r{-1, ""};
+  FILE* p = popen(cmd.c_str(), "r");
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof buf, p)) r.output.append(buf, n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+TEST(CompareCli, UnknownEffectExits78NamingItAndTheKnownOnes) {
+  const CliRun r = RunNdsid("compare --config " NDSID_APP_PRISTINE " --effects steer_ofset --out /tmp/unused");
+  EXPECT_EQ(r.code, kExitConfig) << r.output;
+  EXPECT_NE(r.output.find("unknown effect 'steer_ofset'"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("steer_offset"), std::string::npos) << r.output;
+}
+
+TEST(DiagnoseCli, UnknownCandidateExits78) {
+  const CliRun r = RunNdsid("diagnose --config " NDSID_APP_PRISTINE " --candidates roll,wind --out /tmp/unused");
+  EXPECT_EQ(r.code, kExitConfig) << r.output;
+  EXPECT_NE(r.output.find("unknown effect 'wind'"), std::string::npos) << r.output;
+}
+
+TEST(DiagnoseCli, MissingLogExits78NamingTheFile) {
+  const CliRun r = RunNdsid("diagnose --config " NDSID_APP_PRISTINE " --log /nonexistent/drive.log.gz --out /tmp/unused");
+  EXPECT_EQ(r.code, kExitConfig) << r.output;
+  EXPECT_NE(r.output.find("log file not found: /nonexistent/drive.log.gz"), std::string::npos) << r.output;
+}
+
+TEST(CompareCli, MissingConfigExits78) {
+  const CliRun r = RunNdsid("compare --config /nonexistent/vehicle.yaml");
+  EXPECT_EQ(r.code, kExitConfig) << r.output;
+}
+
+TEST(CompareCli, HeldOutDriveNotInWindowExits78ListingTheDrives) {
+  const CliRun r = RunNdsid("compare --config " NDSID_APP_PRISTINE " --hold-out 7 --out /tmp/unused");
+  EXPECT_EQ(r.code, kExitConfig) << r.output;
+  EXPECT_NE(r.output.find("drive 7 is not in the window (drives: 0, 2)"), std::string::npos) << r.output;
+}
+
+TEST(CompareCli, WritesReportWithoutPlotsAndSaysSoWhenPythonIsMissing) {
+  const fs::path out = fs::path(NDSID_APP_OUT) / "compare_nopython";
+  fs::remove_all(out);
+  const CliRun r = RunNdsid("compare --config " NDSID_APP_PRISTINE " --out " + out.string(), "NDSID_PYTHON=/nonexistent/python3");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("plots not written: Python not found at /nonexistent/python3"), std::string::npos) << r.output;
+  const std::string html = ReadWholeFile((out / "report.html").string());
+  EXPECT_NE(html.find("No plots:</b> Python not found"), std::string::npos);
+  EXPECT_NE(html.find("Where it fails"), std::string::npos);
+  EXPECT_FALSE(fs::exists(out / "timeseries.png"));
+  EXPECT_TRUE(fs::exists(out / "compare.csv"));
+}
+
+}  // namespace
+}  // namespace ndsid::app
