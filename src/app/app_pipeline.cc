@@ -2,7 +2,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 
 namespace ndsid::app {
 
@@ -54,14 +56,16 @@ WindowSnapshot Pipeline::Snapshot() const {
   const double frac = config_.identification.validation_fraction;
   const int64_t every = frac > 0 ? std::max<int64_t>(2, std::llround(1.0 / frac)) : 0;
   // Held-out drives: every k-th drive (k = 1/validation_fraction); with fewer than k drives in
-  // the window, the newest drive, so that a validation RMSE exists whenever 2 drives do.
-  std::vector<int64_t> drives;
-  for (const auto& seg : accumulator_.window()) {
-    if (drives.empty() || drives.back() != seg->drive_id) drives.push_back(seg->drive_id);
-  }
+  // the window, the shortest one (training keeps most of the data), so that a validation RMSE
+  // exists whenever 2 drives do.
+  std::map<int64_t, double> drive_s;
+  for (const auto& seg : accumulator_.window()) drive_s[seg->drive_id] += seg->duration_s();
   bool any_regular = false;
-  for (int64_t d : drives) any_regular = any_regular || (every > 0 && d % every == every - 1);
-  const int64_t fallback = (every > 0 && !any_regular && drives.size() >= 2) ? drives.back() : -1;
+  for (const auto& [d, s] : drive_s) any_regular = any_regular || (every > 0 && d % every == every - 1);
+  int64_t fallback = -1;
+  if (every > 0 && !any_regular && drive_s.size() >= 2) {
+    fallback = std::min_element(drive_s.begin(), drive_s.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
+  }
   for (const auto& seg : accumulator_.window()) {
     snap.keep_alive.push_back(seg);
     const bool held_out = (every > 0 && seg->drive_id % every == every - 1) || seg->drive_id == fallback;

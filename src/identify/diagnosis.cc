@@ -266,7 +266,8 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
     bool improved = false;
     int tried = 0;
     for (const CandidateScore& c : diag.ranked) {
-      if (!c.significant || tried >= 3) continue;
+      const bool large = c.rmse_predicted < (1.0 - options.large_effect_rmse_drop) * diag.rmse;
+      if ((!c.significant && !large) || tried >= 3) continue;
       ++tried;
       std::vector<std::string> trial = effects;
       trial.push_back(c.effect);
