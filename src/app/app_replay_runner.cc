@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ndsid/can/candump_reader.h"
+#include "fit_json.h"
 #include "ndsid/common/atomic_file.h"
 
 namespace ndsid::app {
@@ -48,30 +49,7 @@ ReplayOutcome RunReplay(Pipeline& pipeline, const config::Config& config, const 
 namespace {
 
 nlohmann::json EstimateJson(const config::Config& config, const Estimate& e) {
-  nlohmann::json j;
-  const auto& f = e.fit;
-  j["valid"] = f.valid;
-  j["reason"] = f.reason;
-  j["eg_rad_per_mps2"] = f.eg_rad_per_mps2;
-  j["eg_se_rad_per_mps2"] = f.eg_se_rad_per_mps2;
-  j["eg_deg_per_g"] = f.eg_deg_per_g;
-  j["eg_se_deg_per_g"] = f.eg_se_deg_per_g;
-  j["se_method"] = f.se_method;
-  for (int i = 0; i < model::kNumParams; ++i) {
-    j["parameters"][model::kParamNames[i]] = {{"value", f.params[i].value}, {"se", f.params[i].se},
-                                              {"fixed", f.params[i].fixed}, {"at_bound", f.params[i].at_bound},
-                                              {"unit", model::kParamUnits[i]}};
-  }
-  j["correlation"] = f.correlation;
-  j["rmse_train_mps2"] = f.rmse_train_mps2;
-  j["rmse_validation_mps2"] = f.rmse_validation_mps2;
-  j["residuals_train"] = f.residuals_train;
-  j["residuals_validation"] = f.residuals_validation;
-  j["iterations"] = f.iterations;
-  j["solve_seconds"] = f.solve_seconds;
-  j["identifiability"]["condition_number"] = f.identifiability.condition_number;
-  for (const auto& w : f.identifiability.weak) j["identifiability"]["weak"].push_back(w.description);
-  j["identifiability"]["notes"] = f.identifiability.notes;
+  nlohmann::json j = FitToJson(e.fit);
   j["steady_state"] = {{"valid", e.steady_state.valid}, {"reason", e.steady_state.reason},
                        {"eg_rad_per_mps2", e.steady_state.eg_rad_per_mps2}, {"eg_se_rad_per_mps2", e.steady_state.eg_se},
                        {"steer_ratio", e.steady_state.steer_ratio}, {"steer_offset_rad", e.steady_state.steer_offset_rad}};

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_registry.h"
+#include "fit_json.h"
 #include "model_report.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/model/single_track.h"
@@ -36,20 +37,9 @@ std::string Num(const char* fmt, double v) {
 nlohmann::json ModelJson(const FittedModel& m, const FitFigures& train, const FitFigures& val, double white,
                          double overall) {
   const auto& f = m.fit;
-  nlohmann::json j;
+  nlohmann::json j = FitToJson(f);
   j["label"] = m.label;
   j["effects"] = m.effects;
-  j["model"] = f.model;
-  j["valid"] = f.valid;
-  j["eg_rad_per_mps2"] = f.eg_rad_per_mps2;
-  j["eg_se_rad_per_mps2"] = f.eg_se_rad_per_mps2;
-  j["eg_deg_per_g"] = f.eg_deg_per_g;
-  j["eg_se_deg_per_g"] = f.eg_se_deg_per_g;
-  j["se_method"] = f.se_method;
-  j["parameters"] = nlohmann::json::array();
-  for (const auto& p : f.params) j["parameters"].push_back({{"name", p.name}, {"value", p.value}, {"se", p.se}, {"unit", p.unit}, {"fixed", p.fixed}});
-  for (const auto& p : f.effect_params) j["parameters"].push_back({{"name", p.name}, {"value", p.value}, {"se", p.se}, {"unit", p.unit}, {"fixed", p.fixed}});
-  j["values"] = f.AllValues();
   j["fit_rmse_train_mps2"] = f.rmse_train_mps2;
   j["fit_rmse_validation_mps2"] = f.rmse_validation_mps2;
   for (const auto& [name, ff] : {std::pair{"train", train}, std::pair{"validation", val}}) {

@@ -1,0 +1,37 @@
+#include "fit_json.h"
+
+namespace ndsid::app {
+
+nlohmann::json FitToJson(const identify::IdentificationResult& f) {
+  nlohmann::json j;
+  j["model"] = f.model;
+  j["valid"] = f.valid;
+  j["reason"] = f.reason;
+  j["eg_rad_per_mps2"] = f.eg_rad_per_mps2;
+  j["eg_se_rad_per_mps2"] = f.eg_se_rad_per_mps2;
+  j["eg_deg_per_g"] = f.eg_deg_per_g;
+  j["eg_se_deg_per_g"] = f.eg_se_deg_per_g;
+  j["se_method"] = f.se_method;
+  j["parameters"] = nlohmann::json::array();
+  auto add = [&](const identify::ParameterEstimate& p) {
+    j["parameters"].push_back({{"name", p.name}, {"value", p.value}, {"se", p.se}, {"unit", p.unit},
+                               {"fixed", p.fixed}, {"at_bound", p.at_bound}});
+  };
+  for (const auto& p : f.params) add(p);
+  for (const auto& p : f.effect_params) add(p);
+  j["values"] = f.AllValues();
+  j["correlation"] = f.correlation;
+  j["rmse_train_mps2"] = f.rmse_train_mps2;
+  j["rmse_validation_mps2"] = f.rmse_validation_mps2;
+  j["residuals_train"] = f.residuals_train;
+  j["residuals_validation"] = f.residuals_validation;
+  j["iterations"] = f.iterations;
+  j["solve_seconds"] = f.solve_seconds;
+  j["identifiability"]["condition_number"] = f.identifiability.condition_number;
+  j["identifiability"]["weak"] = nlohmann::json::array();
+  for (const auto& w : f.identifiability.weak) j["identifiability"]["weak"].push_back(w.description);
+  j["identifiability"]["notes"] = f.identifiability.notes;
+  return j;
+}
+
+}  // namespace ndsid::app
