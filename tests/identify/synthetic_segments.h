@@ -15,28 +15,39 @@ namespace ndsid::testing {
 inline model::Params<double> TruthParams() { return {1900, 2700, 75000, 120000, 1.15, 14.8}; }
 inline constexpr double kWheelbase = 2.648;
 
-inline std::vector<stats::Segment> SyntheticSegments(int count, double seconds, double noise_mps2, uint64_t seed,
-                                                     const model::Params<double>& p = TruthParams()) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> uni(0.0, 1.0);
-  std::normal_distribution<double> gauss(0.0, 1.0);
-  std::vector<stats::Segment> out;
-  constexpr double kFine = 0.001, kDt = 0.02;
-  for (int s = 0; s < count; ++s) {
-    // Steering: sum of 4 sinusoids (0.05..0.6 Hz) of up to ~40 deg at the wheel; speed 8..35 m/s.
-    double amp[4], freq[4], phase[4];
+// Smooth random inputs of one segment: steering a sum of 4 sinusoids (0.05..0.6 Hz) of up to
+// ~40 deg at the wheel, speed 8..35 m/s with a slow swing.
+struct RandomInputs {
+  double amp[4], freq[4], phase[4], v0, dv, fv;
+  explicit RandomInputs(std::mt19937_64& rng) {
+    std::uniform_real_distribution<double> uni(0.0, 1.0);
     for (int i = 0; i < 4; ++i) {
       amp[i] = (0.05 + 0.15 * uni(rng)) / (1 + i);
       freq[i] = 0.05 + 0.55 * uni(rng);
       phase[i] = 2 * M_PI * uni(rng);
     }
-    const double v0 = 8 + 27 * uni(rng), dv = 3 * uni(rng), fv = 0.01 + 0.03 * uni(rng);
-    auto steer = [&](double t) {
-      double d = 0;
-      for (int i = 0; i < 4; ++i) d += amp[i] * std::sin(2 * M_PI * freq[i] * t + phase[i]);
-      return d;
-    };
-    auto speed = [&](double t) { return v0 + dv * std::sin(2 * M_PI * fv * t); };
+    v0 = 8 + 27 * uni(rng);
+    dv = 3 * uni(rng);
+    fv = 0.01 + 0.03 * uni(rng);
+  }
+  double steer(double t) const {
+    double d = 0;
+    for (int i = 0; i < 4; ++i) d += amp[i] * std::sin(2 * M_PI * freq[i] * t + phase[i]);
+    return d;
+  }
+  double speed(double t) const { return v0 + dv * std::sin(2 * M_PI * fv * t); }
+};
+
+inline std::vector<stats::Segment> SyntheticSegments(int count, double seconds, double noise_mps2, uint64_t seed,
+                                                     const model::Params<double>& p = TruthParams()) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::vector<stats::Segment> out;
+  constexpr double kFine = 0.001, kDt = 0.02;
+  for (int s = 0; s < count; ++s) {
+    const RandomInputs inputs(rng);
+    auto steer = [&](double t) { return inputs.steer(t); };
+    auto speed = [&](double t) { return inputs.speed(t); };
     stats::Segment seg;
     seg.drive_id = s;
     seg.dt_s = kDt;
@@ -75,27 +86,17 @@ inline std::vector<stats::Segment> SyntheticSegmentsWithEffects(const model::Mod
                                                                 const std::vector<double>& truth, int count,
                                                                 double seconds, double noise_mps2, uint64_t seed) {
   std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> uni(0.0, 1.0);
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::vector<stats::Segment> out;
   constexpr double kFine = 0.001, kDt = 0.02;
   constexpr int kDecimate = 20;
   for (int s = 0; s < count; ++s) {
-    double amp[4], freq[4], phase[4];
-    for (int i = 0; i < 4; ++i) {
-      amp[i] = (0.05 + 0.15 * uni(rng)) / (1 + i);
-      freq[i] = 0.05 + 0.55 * uni(rng);
-      phase[i] = 2 * M_PI * uni(rng);
-    }
-    const double v0 = 8 + 27 * uni(rng), dv = 3 * uni(rng), fv = 0.01 + 0.03 * uni(rng);
+    const RandomInputs inputs(rng);
     const size_t n_fine = static_cast<size_t>(seconds / kFine);
     std::vector<float> in(2 * n_fine);
     for (size_t k = 0; k < n_fine; ++k) {
-      const double t = k * kFine;
-      double d = 0;
-      for (int i = 0; i < 4; ++i) d += amp[i] * std::sin(2 * M_PI * freq[i] * t + phase[i]);
-      in[2 * k] = static_cast<float>(d);
-      in[2 * k + 1] = static_cast<float>(v0 + dv * std::sin(2 * M_PI * fv * t));
+      in[2 * k] = static_cast<float>(inputs.steer(k * kFine));
+      in[2 * k + 1] = static_cast<float>(inputs.speed(k * kFine));
     }
     std::vector<double> y(n_fine);
     model::SimulateModel(spec, truth.data(), kWheelbase, model::InputSeries{&in[0], &in[1], 2, n_fine, kFine},
