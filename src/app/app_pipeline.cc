@@ -14,7 +14,8 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
       extractor_(config, db),
       gate_(config.gate, 1.0 / config.sync.rate_hz),
       accumulator_(config, config.sync.rate_hz),
-      identifier_(config.identification, config.vehicle.wheelbase_m, model::ModelSpec::FromNames(config.model_effects)),
+      identifier_(config.identification, config.vehicle.wheelbase_m,
+                  (model::RegisterFormulaEffects(config.model_formulas), model::ModelSpec::FromNames(config.model_effects))),
       adequacy_(config.adequacy) {
   samples_.reserve(1024);
 }

@@ -279,6 +279,54 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
   if (top.Has("model")) {
     const YamlReader m = top.Child("model");
     c.model_effects = m.Strings("effects", {});
+    if (m.Has("formulas")) {
+      const YamlReader fs = m.Child("formulas");
+      for (const auto& kv : fs.node()) {
+        const std::string name = kv.first.as<std::string>();
+        const YamlReader f = fs.Child(name);
+        FormulaSpec spec;
+        spec.name = name;
+        spec.line = fs.Line(name);
+        for (const char* target : {"a_y_meas", "beta_dot", "r_dot"}) {
+          if (f.Has(target)) {
+            if (!spec.target.empty()) f.Fail(target, "a formula states one of a_y_meas, beta_dot, r_dot");
+            spec.target = target;
+            spec.expression = f.String(target);
+          } else {
+            f.Raw(target);
+          }
+        }
+        if (spec.target.empty()) fs.Fail(name, "needs one of a_y_meas, beta_dot, r_dot");
+        if (f.Has("parameters")) {
+          const YamlReader ps = f.Child("parameters");
+          for (const auto& pkv : ps.node()) {
+            const std::string pname = pkv.first.as<std::string>();
+            const YamlReader pr = ps.Child(pname);
+            FormulaParam fp;
+            fp.name = pname;
+            fp.lower = pr.Number("min");
+            fp.upper = pr.Number("max");
+            fp.neutral = pr.Number("neutral", 0.0);
+            fp.initial = pr.Number("initial", fp.neutral);
+            fp.unit = pr.String("unit", "-");
+            pr.Finish();
+            if (!(fp.upper > fp.lower) || fp.initial < fp.lower || fp.initial > fp.upper) {
+              ps.Fail(pname, "needs min < max and min <= initial <= max");
+            }
+            spec.params.push_back(fp);
+          }
+          ps.Finish();
+        } else {
+          f.Raw("parameters");
+        }
+        if (spec.params.empty()) fs.Fail(name, "a formula effect needs at least one parameter");
+        f.Finish();
+        c.model_formulas.push_back(spec);
+      }
+      fs.Finish();
+    } else {
+      m.Raw("formulas");
+    }
     m.Finish();
   }
   c.state_dir = Resolve(base_dir, top.String("state_dir", c.state_dir));

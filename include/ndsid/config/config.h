@@ -114,6 +114,20 @@ struct LcmConfig {
   double monitor_rate_hz = 10.0;
 };
 
+// A hypothesis stated as a formula (docs/adding-an-effect.md): an effect without recompiling.
+struct FormulaParam {
+  std::string name;
+  std::string unit;
+  double lower = 0, upper = 0, initial = 0, neutral = 0;
+};
+struct FormulaSpec {
+  std::string name;        // the effect's name in model.effects
+  std::string target;      // "a_y_meas" (the measured a_y), "beta_dot" or "r_dot" (added terms)
+  std::string expression;
+  std::vector<FormulaParam> params;
+  int line = 0;
+};
+
 struct VehicleConfig {
   std::string name;            // keys the learned state: a state from another vehicle is never loaded
   double wheelbase_m = 0;      // l, data sheet
@@ -136,6 +150,7 @@ struct Config {
   std::string report_dir = "out/report";
   std::string log_level = "info";
   std::vector<std::string> model_effects;  // effect names added to the base model
+  std::vector<FormulaSpec> model_formulas; // model.formulas: user effects stated as formulas
 
   const RoleSignal* role(Role r) const { return roles[static_cast<int>(r)] ? &*roles[static_cast<int>(r)] : nullptr; }
 };

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "ndsid/config/config.h"
 #include "ndsid/model/single_track.h"
 
 namespace ndsid::model {
@@ -88,6 +89,7 @@ struct ForceTerms {
   T force_front_n;
   T force_rear_n;
   T gravity_lat_mps2;  // enters beta' only
+  T yaw_accel_radps2;  // added to r' (a yaw moment / Jz)
 };
 
 // The measured lateral acceleration the model predicts = a_y + sum of measurement terms.
@@ -204,6 +206,10 @@ class EffectImpl : public Effect {
 
 // All built-in effects (src/model/effects/; registration in builtin_effects.cc).
 std::vector<std::string> BuiltinEffectNames();
+// Effects stated as formulas in the configuration (model.formulas) become available to
+// MakeEffect under their names. Throws ConfigError naming the formula on a parse error, a
+// built-in's name, or a formula that does not reduce to the base model at its neutral values.
+void RegisterFormulaEffects(const std::vector<config::FormulaSpec>& specs);
 // Throws ndsid::ConfigError naming the effect and listing the known ones.
 std::shared_ptr<const Effect> MakeEffect(const std::string& name);
 

@@ -71,10 +71,11 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
   };
   auto derivative = [&](const State<T>& x, const ModelInputs<T>& u) {
     const AxleSlip<T> slip = SlipAngles(p, l, x, u.steer_rad, u.speed_mps);
-    ForceTerms<T> f{p.cv * slip.front, p.ch * slip.rear, T(0.0)};
+    ForceTerms<T> f{p.cv * slip.front, p.ch * slip.rear, T(0.0), T(0.0)};
     for (size_t e = 0; e < ne; ++e) effects[e]->Forces(eta(e), p, l, slip, x, u, st(e), f);
     Derivative<T> d = DerivativeFromForces(p, l, x, u.speed_mps, f.force_front_n, f.force_rear_n);
     d.beta_dot += f.gravity_lat_mps2 / u.speed_mps;
+    d.r_dot += f.yaw_accel_radps2;
     return d;
   };
   auto measure = [&](const Derivative<T>& d, const State<T>& x, const ModelInputs<T>& u) {

@@ -41,6 +41,7 @@ std::shared_ptr<const Effect> MakeEffect(const std::string& name) {
   for (const auto& [n, f] : Table()) {
     if (n == name) return f();
   }
+  if (auto formula = FindRegisteredFormula(name)) return formula;
   std::string known;
   for (const auto& [n, f] : Table()) known += (known.empty() ? "" : ", ") + n;
   throw ConfigError("unknown effect '" + name + "'; known effects: " + known);

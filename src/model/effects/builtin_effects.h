@@ -19,5 +19,6 @@ std::shared_ptr<const Effect> MakeTyreSaturation();
 std::shared_ptr<const Effect> MakeAccelBias();
 std::shared_ptr<const Effect> MakeLeverArm();
 std::shared_ptr<const Effect> MakeRoll();
+std::shared_ptr<const Effect> FindRegisteredFormula(const std::string& name);  // nullptr if none
 
 }  // namespace ndsid::model

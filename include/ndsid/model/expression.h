@@ -1,0 +1,81 @@
+// Arithmetic expressions for user-stated hypotheses ("a_y + k3*a_y^3"), parsed once at load
+// time and evaluated on double or autodiff Jets, so a formula effect is differentiated like a
+// built-in one. Grammar: numbers, names, + - * / ^ (right-associative), unary -, parentheses,
+// and sin cos tan tanh exp log sqrt abs of one argument.
+#pragma once
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ndsid/common/error.h"
+
+namespace ndsid::model {
+
+struct ExprNode {
+  enum class Kind { kNumber, kVariable, kAdd, kSub, kMul, kDiv, kPow, kNeg, kCall } kind;
+  double number = 0;
+  int variable = -1;     // index into the variable names given to ParseExpression
+  std::string function;  // kCall
+  std::unique_ptr<ExprNode> a, b;
+};
+
+class Expression {
+ public:
+  // Throws ConfigError "expression 'text', column C: message" on a syntax error or a name not in
+  // `variables`.
+  static Expression Parse(const std::string& text, const std::vector<std::string>& variables);
+
+  template <typename T>
+  T Evaluate(const T* values) const {
+    return Eval(*root_, values);
+  }
+  const std::string& text() const { return text_; }
+  bool Uses(int variable) const;
+
+ private:
+  template <typename T>
+  static T Eval(const ExprNode& n, const T* v) {
+    using std::abs, std::cos, std::exp, std::log, std::pow, std::sin, std::sqrt, std::tan, std::tanh;
+    switch (n.kind) {
+      case ExprNode::Kind::kNumber: return T(n.number);
+      case ExprNode::Kind::kVariable: return v[n.variable];
+      case ExprNode::Kind::kAdd: return Eval(*n.a, v) + Eval(*n.b, v);
+      case ExprNode::Kind::kSub: return Eval(*n.a, v) - Eval(*n.b, v);
+      case ExprNode::Kind::kMul: return Eval(*n.a, v) * Eval(*n.b, v);
+      case ExprNode::Kind::kDiv: return Eval(*n.a, v) / Eval(*n.b, v);
+      case ExprNode::Kind::kNeg: return -Eval(*n.a, v);
+      case ExprNode::Kind::kPow: {
+        // Integer exponents as products (exact derivatives at 0, negative bases allowed).
+        if (n.b->kind == ExprNode::Kind::kNumber && n.b->number == std::floor(n.b->number) &&
+            std::abs(n.b->number) <= 8) {
+          const int k = static_cast<int>(n.b->number);
+          const T base = Eval(*n.a, v);
+          T r = T(1.0);
+          for (int i = 0; i < std::abs(k); ++i) r = r * base;
+          return k >= 0 ? r : T(1.0) / r;
+        }
+        return pow(Eval(*n.a, v), Eval(*n.b, v));
+      }
+      case ExprNode::Kind::kCall: {
+        const T x = Eval(*n.a, v);
+        const std::string& f = n.function;
+        if (f == "sin") return sin(x);
+        if (f == "cos") return cos(x);
+        if (f == "tan") return tan(x);
+        if (f == "tanh") return tanh(x);
+        if (f == "exp") return exp(x);
+        if (f == "log") return log(x);
+        if (f == "sqrt") return sqrt(x);
+        return abs(x);
+      }
+    }
+    return T(0.0);
+  }
+
+  std::string text_;
+  std::shared_ptr<const ExprNode> root_;
+};
+
+}  // namespace ndsid::model

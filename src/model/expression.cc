@@ -1,0 +1,143 @@
+#include "ndsid/model/expression.h"
+
+#include <cctype>
+#include <cstdlib>
+#include <functional>
+
+namespace ndsid::model {
+namespace {
+
+class Parser {
+ public:
+  Parser(const std::string& text, const std::vector<std::string>& vars) : s_(text), vars_(vars) {}
+
+  std::unique_ptr<ExprNode> Parse() {
+    auto n = Sum();
+    Skip();
+    if (pos_ < s_.size()) Fail("unexpected '" + std::string(1, s_[pos_]) + "'");
+    return n;
+  }
+
+ private:
+  [[noreturn]] void Fail(const std::string& msg) const {
+    throw ConfigError("expression '" + s_ + "', column " + std::to_string(pos_ + 1) + ": " + msg);
+  }
+  void Skip() {
+    while (pos_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[pos_]))) ++pos_;
+  }
+  bool Eat(char c) {
+    Skip();
+    if (pos_ < s_.size() && s_[pos_] == c) {
+      ++pos_;
+      return true;
+    }
+    return false;
+  }
+  static std::unique_ptr<ExprNode> Make(ExprNode::Kind k, std::unique_ptr<ExprNode> a, std::unique_ptr<ExprNode> b) {
+    auto n = std::make_unique<ExprNode>();
+    n->kind = k;
+    n->a = std::move(a);
+    n->b = std::move(b);
+    return n;
+  }
+  std::unique_ptr<ExprNode> Sum() {
+    auto n = Product();
+    for (;;) {
+      if (Eat('+')) n = Make(ExprNode::Kind::kAdd, std::move(n), Product());
+      else if (Eat('-')) n = Make(ExprNode::Kind::kSub, std::move(n), Product());
+      else return n;
+    }
+  }
+  std::unique_ptr<ExprNode> Product() {
+    auto n = Unary();
+    for (;;) {
+      if (Eat('*')) n = Make(ExprNode::Kind::kMul, std::move(n), Unary());
+      else if (Eat('/')) n = Make(ExprNode::Kind::kDiv, std::move(n), Unary());
+      else return n;
+    }
+  }
+  std::unique_ptr<ExprNode> Unary() {
+    if (Eat('-')) return Make(ExprNode::Kind::kNeg, Unary(), nullptr);
+    if (Eat('+')) return Unary();
+    return Power();
+  }
+  std::unique_ptr<ExprNode> Power() {
+    auto base = Atom();
+    if (Eat('^')) return Make(ExprNode::Kind::kPow, std::move(base), Unary());  // right-associative
+    return base;
+  }
+  std::unique_ptr<ExprNode> Atom() {
+    Skip();
+    if (pos_ >= s_.size()) Fail("unexpected end of expression");
+    const char c = s_[pos_];
+    if (Eat('(')) {
+      auto n = Sum();
+      if (!Eat(')')) Fail("expected ')'");
+      return n;
+    }
+    if (std::isdigit(static_cast<unsigned char>(c)) || c == '.') {
+      const char* start = s_.c_str() + pos_;
+      char* end = nullptr;
+      const double v = std::strtod(start, &end);
+      if (end == start) Fail("bad number");
+      pos_ += static_cast<size_t>(end - start);
+      auto n = std::make_unique<ExprNode>();
+      n->kind = ExprNode::Kind::kNumber;
+      n->number = v;
+      return n;
+    }
+    if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
+      const size_t start = pos_;
+      while (pos_ < s_.size() && (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_')) ++pos_;
+      const std::string name = s_.substr(start, pos_ - start);
+      if (Eat('(')) {
+        static const char* kFunctions[] = {"sin", "cos", "tan", "tanh", "exp", "log", "sqrt", "abs"};
+        bool known = false;
+        for (const char* f : kFunctions) known = known || name == f;
+        if (!known) {
+          pos_ = start;
+          Fail("unknown function '" + name + "' (known: sin cos tan tanh exp log sqrt abs)");
+        }
+        auto n = Make(ExprNode::Kind::kCall, Sum(), nullptr);
+        n->function = name;
+        if (!Eat(')')) Fail("expected ')' after the argument of " + name);
+        return n;
+      }
+      for (size_t i = 0; i < vars_.size(); ++i) {
+        if (vars_[i] == name) {
+          auto n = std::make_unique<ExprNode>();
+          n->kind = ExprNode::Kind::kVariable;
+          n->variable = static_cast<int>(i);
+          return n;
+        }
+      }
+      pos_ = start;
+      std::string known;
+      for (const auto& v : vars_) known += (known.empty() ? "" : ", ") + v;
+      Fail("unknown name '" + name + "' (signals and parameters here: " + known + ")");
+    }
+    Fail("unexpected '" + std::string(1, c) + "'");
+  }
+
+  const std::string& s_;
+  const std::vector<std::string>& vars_;
+  size_t pos_ = 0;
+};
+
+bool UsesVariable(const ExprNode& n, int v) {
+  if (n.kind == ExprNode::Kind::kVariable) return n.variable == v;
+  return (n.a && UsesVariable(*n.a, v)) || (n.b && UsesVariable(*n.b, v));
+}
+
+}  // namespace
+
+Expression Expression::Parse(const std::string& text, const std::vector<std::string>& variables) {
+  Expression e;
+  e.text_ = text;
+  e.root_ = Parser(text, variables).Parse();
+  return e;
+}
+
+bool Expression::Uses(int variable) const { return UsesVariable(*root_, variable); }
+
+}  // namespace ndsid::model
