@@ -145,3 +145,4 @@ TEST(HiddenEffectLong, EffectOutsideTheLibraryIsReportedUnexplained) {
 
 }  // namespace
 }  // namespace ndsid::testing
+
