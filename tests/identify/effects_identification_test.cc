@@ -14,13 +14,7 @@ using ndsid::testing::Pointers;
 using ndsid::testing::SyntheticSegmentsWithEffects;
 using ndsid::testing::TruthParams;
 
-config::IdentificationConfig Cfg() {
-  config::IdentificationConfig c;
-  const double lo[6] = {1800, 2200, 65000, 110000, 1.0, 14.2}, hi[6] = {2000, 3200, 90000, 135000, 1.3, 15.3};
-  for (int i = 0; i < 6; ++i) c.params[i] = {lo[i], hi[i], 0.5 * (lo[i] + hi[i]), i == 0};
-  c.params[0].initial = 1900;
-  return c;
-}
+config::IdentificationConfig Cfg() { return ndsid::testing::DefaultIdentificationConfig(); }
 
 struct Case {
   const char* effect;

@@ -13,18 +13,7 @@ using ndsid::testing::Pointers;
 using ndsid::testing::SyntheticSegments;
 using ndsid::testing::TruthParams;
 
-config::IdentificationConfig DefaultConfig() {
-  const config::Config c = config::ParseConfig(R"(
-vehicle: {name: t, wheelbase_m: 2.648, mass_kg: 1900}
-source: {type: log, logs: [x.log]}
-dbc: x.dbc
-signals:
-  steering_wheel_angle: {message: A, signal: B, unit: deg}
-  vehicle_speed: {message: A, signal: C, unit: km/h}
-  lateral_acceleration: {message: A, signal: D, unit: m/s^2}
-)", "test.yaml");
-  return c.identification;
-}
+config::IdentificationConfig DefaultConfig() { return ndsid::testing::DefaultIdentificationConfig(); }
 
 // Catches: a wrong model, discretisation or parameter scaling biasing EG; an optimiser that
 // stops early. Data: 40 segments x 60 s, a_y noise 0.05 m/s^2, the truth inside the box.

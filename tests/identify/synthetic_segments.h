@@ -7,10 +7,25 @@
 #include <random>
 #include <vector>
 
+#include "ndsid/config/config.h"
 #include "ndsid/model/simulate.h"
 #include "ndsid/stats/segment.h"
 
 namespace ndsid::testing {
+
+// The identification settings a vehicle file gets by default (the study's box, m fixed at the
+// data-sheet 1900 kg), through the real config loader.
+inline config::IdentificationConfig DefaultIdentificationConfig() {
+  return config::ParseConfig(R"(
+vehicle: {name: t, wheelbase_m: 2.648, mass_kg: 1900}
+source: {type: log, logs: [x.log]}
+dbc: x.dbc
+signals:
+  steering_wheel_angle: {message: A, signal: B, unit: deg}
+  vehicle_speed: {message: A, signal: C, unit: km/h}
+  lateral_acceleration: {message: A, signal: D, unit: m/s^2}
+)", "test.yaml").identification;
+}
 
 inline model::Params<double> TruthParams() { return {1900, 2700, 75000, 120000, 1.15, 14.8}; }
 inline constexpr double kWheelbase = 2.648;

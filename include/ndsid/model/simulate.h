@@ -30,20 +30,6 @@ State<T> SteadyState(const Params<T>& p, double l, const U& steer_wheel_rad, con
   return {(-b1 * a22 + b2 * a12) / det, (-a11 * b2 + a21 * b1) / det};
 }
 
-// Simulates n samples spaced dt apart, starting from the steady state of the first input, and
-// writes the modelled lateral acceleration at each sample time to a_y_out[0..n).
-// Inputs are read through accessor functors steer(k) [rad] and speed(k) [m/s]. Base model only.
-template <typename T, typename SteerFn, typename SpeedFn>
-void SimulateLateralAcceleration(const Params<T>& p, double wheelbase_m, double dt_s, size_t n, SteerFn steer,
-                                 SpeedFn speed, T* a_y_out) {
-  if (n == 0) return;
-  State<T> x = SteadyState(p, wheelbase_m, steer(0), speed(0));
-  for (size_t k = 0; k + 1 < n; ++k) {
-    a_y_out[k] = Rk4Step(p, wheelbase_m, x, steer(k), steer(k + 1), speed(k), speed(k + 1), dt_s);
-  }
-  a_y_out[n - 1] = LinearDerivative(p, wheelbase_m, x, steer(n - 1), speed(n - 1)).a_y;
-}
-
 // Optional per-sample traces of a simulation (for comparison reports and monitoring).
 struct SimulationTrace {
   std::vector<double> yaw_rate_radps;
