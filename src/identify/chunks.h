@@ -21,7 +21,10 @@ struct Chunk {
   model::InputSeries Inputs() const {
     constexpr size_t kStride = sizeof(stats::SegmentSample) / sizeof(float);
     model::InputSeries in{&samples[0].steer_rad, &samples[0].speed_mps, kStride, n, dt_s};
-    if (bank && !bank->empty()) in.bank_mps2 = bank->data();
+    if (bank && !bank->empty()) {
+      in.bank_mps2 = bank->data();
+      in.yaw_rate_radps = &samples[0].yaw_rate_radps;  // the bank is estimated only with a yaw rate
+    }
     return in;
   }
 };

@@ -53,7 +53,11 @@ struct InputSeries {
   // Road bank seen from the data, g*sin(theta) ~ low-pass(v r - a_y,meas) [m/s^2], one float
   // per sample (nullptr when the bus has no yaw rate). Used by the road_bank effect.
   const float* bank_mps2 = nullptr;
+  // Measured yaw rate [rad/s], element k at yaw_rate_radps[k * stride] (nullptr when the bus
+  // has none). Used by the road_bank effect's observer.
+  const float* yaw_rate_radps = nullptr;
   double steer(size_t k) const { return steer_rad[k * stride]; }
+  double yaw_rate(size_t k) const { return yaw_rate_radps ? yaw_rate_radps[k * stride] : 0.0; }
   double speed(size_t k) const { return speed_mps[k * stride]; }
   double bank(size_t k) const { return bank_mps2 ? bank_mps2[k] : 0.0; }
   template <typename T>
@@ -80,6 +84,7 @@ struct ModelInputs {
   T steer_rad;
   T speed_mps;
   T bank_mps2;  // road bank estimate from the data (0 when unknown); see InputSeries
+  T yaw_rate_meas_radps = T(0.0);  // measured yaw rate (0 when unknown); see InputSeries
 };
 
 // What the dynamics hook may change: axle forces, and an extra lateral acceleration on the
