@@ -8,13 +8,13 @@
 namespace ndsid::testing {
 namespace {
 
-// Catches: a biased EG or a fit that stops short of the noise floor, on the default suite's
-// budget: 1.5 h of clean driving with random road crossfall, model base + road_bank.
-// Measured: EG within ~1-2 % of the truth (a residual bias from the bank estimate, see
-// docs/accuracy.md); the bound is 3 %. The noise floor is the true model's RMSE on the same drives.
-TEST(Accuracy, CleanDrivingEgWithinThreePercentAndRmseAtNoiseFloor) {
-  const SimulatedRun run = SimulateAndReplay("acc_short", 101, 1.5);
-  ASSERT_GT(run.window.gated_hours, 0.8);
+// Catches: a biased EG or a fit that stops short of the noise floor, in the default suite:
+// 2 h of clean driving with random road crossfall (the minimum), model base + road_bank.
+// Measured: +0.05 % mean over 7 seeds (sigma ~0.11 %), see docs/accuracy.md. Bound: 1 %. The
+// noise floor is the true model's RMSE on the same held-out drives.
+TEST(Accuracy, CleanTwoHoursEgWithinOnePercentAndRmseAtNoiseFloor) {
+  const SimulatedRun run = SimulateAndReplay("acc_short", 101, 2.0);
+  ASSERT_GT(run.window.gated_hours, 1.2);
   ASSERT_FALSE(run.window.validation.empty());
   const auto& id = run.pipeline->identifier();
   const identify::IdentificationResult r = id.Identify(run.window.training, run.window.validation,
@@ -23,8 +23,8 @@ TEST(Accuracy, CleanDrivingEgWithinThreePercentAndRmseAtNoiseFloor) {
   const double err = r.eg_rad_per_mps2 - run.eg_truth;
   std::printf("EG %.4f ± %.4f deg/g, truth %.4f (%+.2f %%)\n", r.eg_deg_per_g, r.eg_se_deg_per_g,
               model::EgToDegPerG(run.eg_truth), 100 * err / run.eg_truth);
-  EXPECT_LT(std::abs(err) / run.eg_truth, 0.03);
-  EXPECT_LT(r.eg_se_rad_per_mps2 / run.eg_truth, 0.03);
+  EXPECT_LT(std::abs(err) / run.eg_truth, 0.01);
+  EXPECT_LT(r.eg_se_rad_per_mps2 / run.eg_truth, 0.01);
   // Noise floor: the true model's RMSE on the same held-out drives.
   const double floor = id.Rmse(TruthVector(run, id.spec()), run.window.validation);
   std::printf("validation RMSE %.4f, noise floor %.4f\n", r.rmse_validation_mps2, floor);
@@ -32,26 +32,26 @@ TEST(Accuracy, CleanDrivingEgWithinThreePercentAndRmseAtNoiseFloor) {
   EXPECT_GT(r.rmse_validation_mps2, 0.9 * floor);
 }
 
-// Catches: EG accuracy that does not improve with data. The target is 1 %; measured
-// on 8 gated hours: -1.9 % (bank-estimate bias, docs/accuracy.md), so the bound is 2.5 %.
-TEST(AccuracyLong, TenHoursCleanEgWithinTwoAndAHalfPercent) {
+// Catches: EG accuracy that does not improve with data: 10 h, within 1 % (measured: see
+// docs/accuracy.md) and at the noise floor.
+TEST(AccuracyLong, TenHoursCleanEgWithinOnePercent) {
   const SimulatedRun run = SimulateAndReplay("acc_long", 31, 10.0);
   const auto& id = run.pipeline->identifier();
   const identify::IdentificationResult r = id.Identify(run.window.training, run.window.validation,
                                                        std::optional<std::vector<double>>{});
   ASSERT_TRUE(r.valid) << r.reason;
-  std::printf("EG %.4f ± %.4f deg/g, truth %.4f\n", r.eg_deg_per_g, r.eg_se_deg_per_g, model::EgToDegPerG(run.eg_truth));
-  EXPECT_LT(std::abs(r.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.025);
+  std::printf("EG %.4f ± %.4f deg/g, truth %.4f (%+.2f %%)\n", r.eg_deg_per_g, r.eg_se_deg_per_g,
+              model::EgToDegPerG(run.eg_truth), 100 * (r.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth);
+  EXPECT_LT(std::abs(r.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
   const double floor = id.Rmse(TruthVector(run, id.spec()), run.window.validation);
   EXPECT_LT(r.rmse_validation_mps2, 1.10 * floor);
 }
 
-// Catches: a dishonest standard error, and a growing bias. Across 20 independent 1 h data sets
-// the reported sigma must match the spread of the estimates (sd / mean sigma in [0.7, 1.4]),
-// and the mean error stays below 2 %. Measured: sd/sigma = 0.95, mean error -1.1 %. The issue's
-// criterion (the 95 % interval covers the truth in >= 90 % of sets) is NOT met: the shared
-// -1.1 % bias of the bank estimate (docs/accuracy.md) makes it 9 of 20; printed, not asserted.
-TEST(AccuracyLong, StandardErrorMatchesSpreadAcrossTwentySeeds) {
+// Catches: a dishonest standard error, and a shared bias. Across 20 independent 1 h data sets
+// the 95 % interval must cover the truth at least 18 times (the 90 %), the reported
+// sigma must match the spread of the estimates (sd / mean sigma in [0.7, 1.4]) and the mean
+// error stays below 0.5 %.
+TEST(AccuracyLong, StandardErrorHonestAcrossTwentySeeds) {
   std::vector<double> eg, se;
   int covered = 0;
   double eg_truth = 0;
@@ -67,7 +67,7 @@ TEST(AccuracyLong, StandardErrorMatchesSpreadAcrossTwentySeeds) {
     std::printf("seed %lu: EG %.4f ± %.4f deg/g (truth %.4f)\n", static_cast<unsigned long>(seed), r.eg_deg_per_g,
                 r.eg_se_deg_per_g, model::EgToDegPerG(run.eg_truth));
   }
-  ASSERT_GE(eg.size(), 18u);
+  ASSERT_GE(eg.size(), 20u);
   double mean = 0, mean_se = 0, var = 0;
   for (size_t i = 0; i < eg.size(); ++i) {
     mean += eg[i] / eg.size();
@@ -77,9 +77,31 @@ TEST(AccuracyLong, StandardErrorMatchesSpreadAcrossTwentySeeds) {
   const double ratio = std::sqrt(var) / mean_se;
   std::printf("sd/mean sigma %.2f, mean error %+.2f %%, 95 %% interval covers the truth in %d of %zu\n", ratio,
               100 * (mean - eg_truth) / eg_truth, covered, eg.size());
+  EXPECT_GE(covered, 18);
   EXPECT_GT(ratio, 0.7);
   EXPECT_LT(ratio, 1.4);
-  EXPECT_LT(std::abs(mean - eg_truth) / eg_truth, 0.02);
+  EXPECT_LT(std::abs(mean - eg_truth) / eg_truth, 0.005);
+}
+
+// Catches: an adequacy signal that never fires on plenty of clean data, or fires early. The
+// pipeline re-identifies every hour of data time over a 12 h clean run (as the daemon does):
+// the state must reach ADEQUATE, never before the configured change window + hold period of
+// gated hours, and never while EG is still more than 1 % off the truth.
+TEST(AccuracyLong, AdequacyReachedOnLongCleanRunAndNotEarly) {
+  const SimulatedRun run = SimulateAndReplay("acc_adequacy", 47, 12.0, {}, {"road_bank"}, {.identify_every_s = 3600});
+  ASSERT_GE(run.history.size(), 8u);
+  const auto& cfg = run.config->adequacy;
+  bool reached = false;
+  for (const app::Estimate& e : run.history) {
+    const double err = std::abs(e.fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth;
+    std::printf("%.2f gated h: %s EG %.4f (%+.2f %%) %s\n", e.adequacy.gated_hours,
+                adequacy::StateName(e.adequacy.state), e.fit.eg_deg_per_g, 100 * err, e.adequacy.explanation.c_str());
+    if (e.adequacy.state != adequacy::State::kAdequate) continue;
+    reached = true;
+    EXPECT_LT(err, 0.01) << "ADEQUATE claimed at " << e.adequacy.gated_hours << " h with EG " << 100 * err << " % off";
+    EXPECT_GE(e.adequacy.gated_hours, cfg.change_window_h + cfg.hold_h);
+  }
+  EXPECT_TRUE(reached) << "never ADEQUATE over " << run.window.gated_hours << " gated h";
 }
 
 }  // namespace

@@ -74,8 +74,8 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   std::printf("  validation RMSE %.4f, noise floor %.4f\n", final_fit.rmse_validation_mps2, floor);
   EXPECT_LT(final_fit.rmse_validation_mps2, 1.10 * floor);
   if (!c.expected.empty()) EXPECT_LT(final_fit.rmse_validation_mps2, ladder.rungs.front().fit.rmse_validation_mps2);
-  // The effect's parameter is recovered; EG's bias from the hidden effect is gone (within the
-  // ~1-2 % the clean model leaves, docs/accuracy.md).
+  // The effect's parameter is recovered; EG's bias from the hidden effect is gone: EG within 1 %
+  // of the truth (the clean model is unbiased to ~0.1 %, docs/accuracy.md).
   if (*c.param && c.confounded.empty()) {
     bool found = false;
     for (const auto& p : final_fit.effect_params) {
@@ -85,7 +85,9 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
     }
     EXPECT_TRUE(found) << c.param;
   }
-  EXPECT_LT(std::abs(final_fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.03);
+  std::printf("  EG %.4f deg/g, truth %.4f (%+.2f %%)\n", final_fit.eg_deg_per_g, model::EgToDegPerG(run.eg_truth),
+              100 * (final_fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth);
+  EXPECT_LT(std::abs(final_fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
 }
 
 // Catches: a diagnosis that misses a steering-angle offset, or a ladder that does not add it.
@@ -99,11 +101,13 @@ TEST(HiddenEffect, CleanDataNothingSignificantIsAdded) {
   RunCase({"none", {}, {}, {}, "", 0, 0}, 42, 1.5);
 }
 
-// With road_bank in the model, a bias b enters the bank estimate (v r - a_meas): the model then
-// reproduces b l/L and leaves b EG v^2/L, exactly a steering offset's signature. Measured: the
-// ladder adds steer_offset and reaches the noise floor. The tools cannot tell these apart from
-// (d_sw, v, a_y, r) without standstill data or a prior; the test asserts one of the group.
-TEST(HiddenEffectLong, AccelerometerBiasConfoundedWithSteerOffsetThroughTheBank) {
+// With road_bank in the model (the bank tracked through the yaw rate), a steering offset and an
+// accelerometer bias both leave a constant in the steady-state residual: the observer keeps the
+// model's yaw rate on the measured one, so an offset shows up as a constant tyre force. Measured:
+// accel_bias and steer_offset score alike (dRSS 1.31e3 each, uniqueness 0.99), the ladder adds
+// accel_bias (b 0.1018 of 0.1 m/s^2) and EG is +0.07 %. Transients and the standstill a_y tell
+// them apart; the test asserts the group and, when the bias is chosen, its value.
+TEST(HiddenEffectLong, AccelerometerBiasConfoundedWithSteerOffset) {
   RunCase({"bias", {"accel_bias_mps2=0.1"}, {"accel_bias"}, {"accel_bias", "steer_offset", "crossfall"},
            "accel_bias_mps2", 0.1, 0.015},
           43, 1.5);
@@ -119,6 +123,113 @@ TEST(HiddenEffectLong, TwoEffectsFoundOneAfterTheOther) {
   RunCase({"two", {"steer_offset_deg=1.5", "steer_delay_ms=80"}, {"steer_offset", "steer_delay"}, {}, "steer_offset_rad",
            1.5 * M_PI / 180, 0.003},
           45, 1.5);
+}
+
+// Effects the bus signals cannot tell from the fitted parameters (physics.md §4): the diagnosis
+// must report the hidden effect as confounded (uniqueness < 0.05, naming what it trades with)
+// instead of claiming it. Returns the base fit's relative EG error for the caller to state.
+double ExpectReportedConfounded(const char* name, uint64_t seed, const std::string& simulated, const std::string& effect) {
+  const SimulatedRun run = SimulateAndReplay(name, seed, 1.5, {simulated});
+  const identify::Identifier id(run.config->identification, run.config->vehicle.wheelbase_m,
+                                model::ModelSpec::FromNames({"road_bank"}));
+  const auto fit = id.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
+  EXPECT_TRUE(fit.valid);
+  const identify::Diagnosis d = identify::Diagnose(id, fit.AllValues(), run.window.training, {});
+  PrintDiagnosis(d);
+  bool seen = false;
+  for (const auto& c : d.ranked) {
+    if (c.effect != effect) continue;
+    seen = true;
+    EXPECT_LT(c.uniqueness, 0.05) << effect;
+    EXPECT_FALSE(c.confounded_with.empty()) << effect << ": confounded with nothing named";
+    std::string with;
+    for (const auto& w : c.confounded_with) with += " " + w;
+    std::printf("  %s confounded with:%s\n", effect.c_str(), with.c_str());
+  }
+  EXPECT_TRUE(seen) << effect << " not among the candidates";
+  const double err = (fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth;
+  std::printf("  EG %.4f deg/g, truth %.4f (%+.2f %%)\n", fit.eg_deg_per_g, model::EgToDegPerG(run.eg_truth), 100 * err);
+  return err;
+}
+
+// A lever arm of 0.8 m (a_meas += x_s r'): its signature is a lag like a steering skew's, so the
+// two score alike (measured dRSS 4.03 vs 4.05, uniqueness 0.01 / 0.05). The ladder adds the lag
+// group until the held-out RMSE stops falling; it must end at the noise floor, with lever_arm
+// among the additions and EG within 1 % (measured: steer_delay then lever_arm, EG -0.13 %).
+TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
+  const SimulatedRun run = SimulateAndReplay("lever", 47, 1.5, {"lever_arm_m=0.8"});
+  const auto& cfg = run.config->identification;
+  const identify::Ladder ladder = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+                                                             run.window.training, run.window.validation);
+  ASSERT_FALSE(ladder.diagnoses.empty());
+  PrintDiagnosis(ladder.diagnoses.front());
+  const std::vector<std::string> lag_group{"lever_arm", "steer_delay", "relaxation"};
+  const std::string& first = ladder.diagnoses.front().ranked.front().effect;
+  EXPECT_NE(std::find(lag_group.begin(), lag_group.end(), first), lag_group.end()) << first;
+  bool added = false;
+  for (const auto& r : ladder.rungs) added |= r.added == "lever_arm";
+  EXPECT_TRUE(added);
+  const auto spec = model::ModelSpec::FromNames({"road_bank", "lever_arm"});
+  const identify::Identifier truth_model(cfg, run.config->vehicle.wheelbase_m, spec);
+  const double floor = truth_model.Rmse(TruthVector(run, spec), run.window.validation);
+  const auto& fit = ladder.rungs.back().fit;
+  std::printf("  %s: validation RMSE %.4f, floor %.4f, EG %.4f\n", fit.model.c_str(), fit.rmse_validation_mps2, floor,
+              fit.eg_deg_per_g);
+  EXPECT_LT(fit.rmse_validation_mps2, 1.10 * floor);
+  EXPECT_LT(std::abs(fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
+}
+
+// Body roll 5 deg/g: with the yaw rate in the model (road_bank), the steady part of g*phi scales
+// the measured a_y exactly as a smaller EG does, and the 1.5 Hz roll mode is too weak a
+// separator in everyday driving: reported confounded (uniqueness 0.00). Measured: EG -8.1 %,
+// RMSE at the noise floor — the data cannot show roll; a prior on roll (or a roll-rate sensor)
+// is needed. Not a success case: the test pins down the honest report.
+TEST(HiddenEffectLong, BodyRollReportedConfounded) {
+  ExpectReportedConfounded("roll", 48, "roll_gradient_deg_per_g=5", "roll");
+}
+
+// Speed scale +3 %: it sits in the Ackermann term and trades with l/is (physics.md §4: "weakly");
+// reported confounded (uniqueness 0.00). Measured: EG -2.8 %, RMSE at the noise floor.
+TEST(HiddenEffectLong, SpeedScaleReportedConfounded) {
+  ExpectReportedConfounded("speed", 49, "speed_scale_pct=3", "speed_scale");
+}
+
+// Tyre relaxation 0.6 m: measured ranked first by the score test (z -5.0), but its held-out
+// gain is below the ladder's 3 % rule, so the ladder does not add it (EG +0.30 % without it).
+// Added by hand (config or --effects), the fit recovers sigma, reaches the noise floor and
+// keeps EG within 1 %.
+TEST(HiddenEffectLong, TyreRelaxationRankedFirstAndRecoveredWhenAdded) {
+  const SimulatedRun run = SimulateAndReplay("relax", 50, 1.5, {"relaxation_length_m=0.6"});
+  const auto& cfg = run.config->identification;
+  const double l = run.config->vehicle.wheelbase_m;
+  const identify::Identifier base(cfg, l, model::ModelSpec::FromNames({"road_bank"}));
+  const auto base_fit = base.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
+  ASSERT_TRUE(base_fit.valid);
+  const identify::Diagnosis d = identify::Diagnose(base, base_fit.AllValues(), run.window.training, {});
+  PrintDiagnosis(d);
+  ASSERT_FALSE(d.ranked.empty());
+  EXPECT_EQ(d.ranked.front().effect, "relaxation");
+  const auto spec = model::ModelSpec::FromNames({"road_bank", "relaxation"});
+  const identify::Identifier with(cfg, l, spec);
+  const auto fit = with.Identify(run.window.training, run.window.validation, base_fit.AllValues());
+  ASSERT_TRUE(fit.valid);
+  const double floor = with.Rmse(TruthVector(run, spec), run.window.validation);
+  double sigma = -1;
+  for (const auto& p : fit.effect_params) {
+    if (p.name == "relaxation_length_m") sigma = p.value;
+  }
+  std::printf("  relaxation %.3f m (truth 0.6), validation RMSE %.4f -> %.4f, floor %.4f, EG %.4f -> %.4f (truth %.4f)\n",
+              sigma, base_fit.rmse_validation_mps2, fit.rmse_validation_mps2, floor, base_fit.eg_deg_per_g,
+              fit.eg_deg_per_g, model::EgToDegPerG(run.eg_truth));
+  EXPECT_NEAR(sigma, 0.6, 0.2);
+  EXPECT_LT(fit.rmse_validation_mps2, 1.10 * floor);
+  EXPECT_LT(std::abs(fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
+}
+
+// Superelevation 5 %: the bank tracked by road_bank contains it; nothing is added, EG within 1 %
+// (measured +0.06 %).
+TEST(HiddenEffectLong, SuperelevationAbsorbedByTheTrackedBank) {
+  RunCase({"superel", {"superelevation_pct=5"}, {}, {}, "", 0, 0}, 51, 1.5);
 }
 
 // Catches: an effect outside the candidate list forced onto the nearest candidate. A 120 ms

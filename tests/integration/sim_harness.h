@@ -28,6 +28,14 @@ struct SimulatedRun {
   app::WindowSnapshot window;
   double eg_truth = 0;                // rad/(m/s^2)
   std::vector<double> truth_base;     // m, Jz, cv, ch, lv, is
+  std::vector<app::Estimate> history; // periodic estimates (ReplayOptions::identify_periodically)
+};
+
+// How the log is replayed: by default only read (the tests fit the window themselves); with
+// identify_every_s > 0 the pipeline re-identifies every that many seconds of data time, as the
+// daemon does, and the run keeps the history of estimates with their adequacy reports.
+struct ReplayTweaks {
+  double identify_every_s = 0;
 };
 
 inline std::string TempDir(const std::string& name) {
@@ -40,7 +48,8 @@ inline std::string TempDir(const std::string& name) {
 // (default: the example vehicle's, base + road_bank).
 inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, double hours,
                                       const std::vector<std::string>& effects = {},
-                                      const std::vector<std::string>& model_effects = {"road_bank"}) {
+                                      const std::vector<std::string>& model_effects = {"road_bank"},
+                                      const ReplayTweaks& tweaks = {}) {
   SimulatedRun run;
   run.sim.seed = seed;
   run.sim.duration.hours = hours;
@@ -48,6 +57,7 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   const std::string src = NDSID_SOURCE_DIR;
   run.config = std::make_unique<config::Config>(config::LoadConfig(src + "/config/example_vehicle.yaml"));
   run.config->model_effects = model_effects;
+  if (tweaks.identify_every_s > 0) run.config->identification.period_s = tweaks.identify_every_s;
   run.db = std::make_unique<dbc::Database>(dbc::ParseDbcFile(run.config->dbc));
   const std::string log = TempDir(name) + "/drive.log";
   {
@@ -61,8 +71,8 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.pipeline = std::make_unique<app::Pipeline>(*run.config, *run.db);
   app::ReplayOptions opt;
   opt.logs = {log};
-  opt.identify_periodically = false;
-  app::RunReplay(*run.pipeline, *run.config, opt);
+  opt.identify_periodically = tweaks.identify_every_s > 0;
+  run.history = app::RunReplay(*run.pipeline, *run.config, opt).history;
   run.window = run.pipeline->Snapshot();
   std::filesystem::remove_all(std::filesystem::path(log).parent_path());
   return run;

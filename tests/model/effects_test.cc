@@ -129,6 +129,39 @@ TEST(Effects, AutodiffMatchesNumericDerivatives) {
   }
 }
 
+// Catches: a road-bank observer that does not find the bank, or acts without a yaw rate. The
+// truth drives the stretch on a constant 3 % crossfall (the crossfall effect); road_bank, given
+// only the truth's yaw rate and starting from no bank, must reproduce the truth's a_y once the
+// observer has settled (tau_o = 1 s), and without a yaw rate it must equal the base model.
+TEST(Effects, RoadBankObserverFindsTheBankFromTheYawRate) {
+  const Stretch s;
+  const double g_y = 0.03 * 9.81;
+  SimulationTrace truth_trace;
+  const auto truth = Simulate(ModelSpec::FromNames({"crossfall"}), With(kBase, g_y), s, &truth_trace);
+  std::vector<float> with_r(3 * s.n);
+  for (size_t k = 0; k < s.n; ++k) {
+    with_r[3 * k] = s.data[2 * k];
+    with_r[3 * k + 1] = s.data[2 * k + 1];
+    with_r[3 * k + 2] = static_cast<float>(truth_trace.yaw_rate_radps[k]);
+  }
+  InputSeries in{&with_r[0], &with_r[1], 3, s.n, s.dt};
+  in.yaw_rate_radps = &with_r[2];
+  const ModelSpec bank = ModelSpec::FromNames({"road_bank"});
+  const std::vector<double> p = With(kBase, 1.0);
+  std::vector<double> model(s.n);
+  SimulateModel(bank, p.data(), kL, in, model.data());
+  const auto base = Simulate(ModelSpec{}, kBase, s);
+  double worst_base = 0, worst_model = 0;
+  for (size_t k = s.n / 2; k < s.n; ++k) {  // after 10 s
+    worst_base = std::max(worst_base, std::abs(truth[k] - base[k]));
+    worst_model = std::max(worst_model, std::abs(truth[k] - model[k]));
+  }
+  EXPECT_GT(worst_base, 0.05);   // the bank matters: the base model misses it
+  EXPECT_LT(worst_model, 0.01);  // the observer found it
+  const auto no_yaw = Simulate(bank, p, s);  // Stretch::series() carries no yaw rate
+  for (size_t k = 0; k < s.n; ++k) ASSERT_NEAR(no_yaw[k], base[k], 1e-9) << k;
+}
+
 TEST(ModelSpec, OrdersEffectsAndRejectsUnknownOrRepeated) {
   const ModelSpec spec = ModelSpec::FromNames({"roll", "steer_offset"});
   EXPECT_EQ(spec.effect_names(), (std::vector<std::string>{"steer_offset", "roll"}));

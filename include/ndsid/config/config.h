@@ -102,7 +102,7 @@ struct AdequacyConfig {
   double tolerance = 0.01;          // relative change / relative standard error of EG
   double hold_h = 2.0;              // both must stay under tolerance for this many gated hours
   double change_window_h = 2.0;     // EG's relative change is measured over this many gated hours
-  double kl_threshold = 0.01;       // coverage growth (KL divergence, nats) considered flat
+  double kl_threshold = 0.03;       // coverage growth (KL divergence, nats) considered flat
 };
 
 struct LcmConfig {

@@ -85,6 +85,7 @@ struct ModelInputs {
   T speed_mps;
   T bank_mps2;  // road bank estimate from the data (0 when unknown); see InputSeries
   T yaw_rate_meas_radps = T(0.0);  // measured yaw rate (0 when unknown); see InputSeries
+  bool yaw_rate_measured = false;  // whether yaw_rate_meas_radps holds a measurement
 };
 
 // What the dynamics hook may change: axle forces, and an extra lateral acceleration on the

@@ -51,7 +51,7 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
   auto st = [&](size_t e) { return states.data() + spec.state_offset(e); };
 
   auto inputs_at = [&](size_t k) {
-    ModelInputs<T> u{T(in.steer(k)), T(in.speed(k)), T(in.bank(k)), T(in.yaw_rate(k))};
+    ModelInputs<T> u{T(in.steer(k)), T(in.speed(k)), T(in.bank(k)), T(in.yaw_rate(k)), in.yaw_rate_radps != nullptr};
     for (size_t e = 0; e < ne; ++e) effects[e]->Inputs(eta(e), in, k, u);
     return u;
   };
@@ -93,7 +93,7 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
     const ModelInputs<T> u1 = inputs_at(k + 1);
     const ModelInputs<T> um{T(0.5) * (u0.steer_rad + u1.steer_rad), T(0.5) * (u0.speed_mps + u1.speed_mps),
                             T(0.5) * (u0.bank_mps2 + u1.bank_mps2),
-                            T(0.5) * (u0.yaw_rate_meas_radps + u1.yaw_rate_meas_radps)};
+                            T(0.5) * (u0.yaw_rate_meas_radps + u1.yaw_rate_meas_radps), u0.yaw_rate_measured};
     const Derivative<T> k2 = derivative({x.beta + half * k1.beta_dot, x.r + half * k1.r_dot}, um);
     const Derivative<T> k3 = derivative({x.beta + half * k2.beta_dot, x.r + half * k2.r_dot}, um);
     const Derivative<T> k4 = derivative({x.beta + full * k3.beta_dot, x.r + full * k3.r_dot}, u1);

@@ -32,10 +32,10 @@ struct DiagnoseArgs {
 // What tells an effect apart from those it is confounded with (physics.md §4).
 std::string Separation(const std::string& effect) {
   static const std::map<std::string, std::string> kHints = {
-      {"accel_bias", "constant, also at standstill; yaw rate separates this sensor effect from road and vehicle effects (kinematic residual a_y - v r)"},
+      {"accel_bias", "constant, also at standstill (compare the standstill a_y, net of the road's cross-slope); with road_bank in the model a steering offset also leaves a constant (the bank observer keeps the yaw rate straight), so only transients and standstill data separate the two"},
       {"crossfall", "even in a_y, ~ l/(l+EG v^2); yaw rate measures the road (v r - a_y) and standstill a_y shows the cross-slope"},
-      {"road_bank", "needs yaw rate (v r - a_y); only the roll-mode dynamics or priors separate bank from roll"},
-      {"steer_offset", "even in a_y, grows with v^2/(l+EG v^2) on straights: the speed dependence separates it from bias (constant) and crossfall (~ l/L)"},
+      {"road_bank", "needs yaw rate: the bank is tracked so that the model's yaw rate follows the measured one; sensor effects on a_y (bias, roll, lever arm) stay in the residual"},
+      {"steer_offset", "even in a_y, grows with v^2/(l+EG v^2) on straights: the speed dependence separates it from bias (constant) and crossfall (~ l/L); with road_bank in the model it leaves a constant like a bias (standstill a_y separates them)"},
       {"roll", "odd in a_y and lagging: the steady part trades with is and EG; yaw rate (kinematic l r/v) or the ~1.5 Hz roll mode separate it; roll and bank act alike on the accelerometer"},
       {"superelevation", "odd in a_y: absorbed into is/EG from (d_sw, v, a_y) alone; yaw rate separates it"},
       {"speed_scale", "in the Ackermann term, trades with l/is; only weakly identifiable"},

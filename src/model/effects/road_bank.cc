@@ -11,7 +11,8 @@
 // equation-error fit (EG about -0.8 % on clean simulated drives, see docs/accuracy.md). The
 // observer sees only the yaw rate, whose noise is independent of the accelerometer's, so sensor
 // effects on a_y (bias, roll, lever arm) stay in the residual where the diagnosis can find them.
-// The low-passed kinematic estimate only initialises b at a stretch's first sample. Needs yaw rate.
+// The low-passed kinematic estimate only initialises b at a stretch's first sample. Needs yaw
+// rate: without it b stays 0 and the effect is inert.
 #include <algorithm>
 
 #include "builtin_effects.h"
@@ -41,6 +42,7 @@ class RoadBank final : public EffectImpl<RoadBank> {
   template <class T>
   void AdvanceStatesT(const T*, const Params<T>& p, double l, const ModelInputs<T>& u0, const ModelInputs<T>&,
                       const State<T>& x0, const State<T>&, T, double dt, T* states) const {
+    if (!u0.yaw_rate_measured) return;  // no yaw rate on the bus: the bank stays at its start (0)
     T eg = SelfSteerGradient(p, l);
     if (ScalarOf(eg) < kMinEg_radpmps2) eg = T(kMinEg_radpmps2);
     const T v = u0.speed_mps;
