@@ -177,6 +177,13 @@ TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
               fit.eg_deg_per_g);
   EXPECT_LT(fit.rmse_validation_mps2, 1.10 * floor);
   EXPECT_LT(std::abs(fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
+  // The lever arm itself, stated tolerance +-0.3 m (its signature is 99 % absorbable by lv/Jz).
+  for (const auto& p : fit.effect_params) {
+    if (p.name == "lever_arm_m") {
+      std::printf("  lever_arm %.3f ± %.3f m (truth 0.8)\n", p.value, p.se);
+      EXPECT_NEAR(p.value, 0.8, 0.3);
+    }
+  }
 }
 
 // Body roll 5 deg/g: with the yaw rate in the model (road_bank), the steady part of g*phi scales
