@@ -20,6 +20,7 @@ struct ReplayArgs {
   std::string replay_dir = std::string(NDSID_SOURCE_DIR) + "/replay";
   std::string report_dir;
   bool final_only = false;
+  bool use_config_logs = false;  // --config given without --log / --replay-dir: its source.logs
 };
 
 int Run(const ReplayArgs& a) {
@@ -35,6 +36,8 @@ int Run(const ReplayArgs& a) {
   std::vector<Set> sets;
   if (!a.logs.empty()) {
     sets.push_back({fs::path(a.logs.front()).stem().string(), a.logs, ""});
+  } else if (a.use_config_logs && !cfg.source.logs.empty()) {
+    sets.push_back({fs::path(a.config).stem().string(), cfg.source.logs, ""});
   } else if (fs::exists(a.replay_dir)) {
     std::vector<fs::path> dirs;
     for (const auto& entry : fs::directory_iterator(a.replay_dir)) {
@@ -73,12 +76,20 @@ void Register(CLI::App& parent, int& exit_code) {
   auto args = std::make_shared<ReplayArgs>();
   auto* cmd = parent.add_subcommand(
       "replay", "Replay recorded drives (candump -l logs) through the estimator: EG ± sigma, adequacy, report");
-  cmd->add_option("--config", args->config, "Vehicle configuration (YAML)")->capture_default_str();
-  cmd->add_option("--log", args->logs, "Log files to replay as one set (default: every set in --replay-dir)");
-  cmd->add_option("--replay-dir", args->replay_dir, "Folder of bundled sets (one subfolder each)")->capture_default_str();
+  auto* config_opt = cmd->add_option("--config", args->config,
+                                     "Vehicle configuration (YAML); given alone, its source.logs are replayed")
+                         ->capture_default_str();
+  auto* log_opt = cmd->add_option("--log", args->logs,
+                                  "Log files to replay as one set (default: the --config's source.logs when --config "
+                                  "is given, else every set in --replay-dir)");
+  auto* dir_opt = cmd->add_option("--replay-dir", args->replay_dir, "Folder of bundled sets (one subfolder each)")
+                      ->capture_default_str();
   cmd->add_option("--report", args->report_dir, "Report folder (default: report_dir of the configuration)");
   cmd->add_flag("--final-only", args->final_only, "Identify once at the end instead of every identification.period_s");
-  cmd->callback([args, &exit_code] { exit_code = Run(*args); });
+  cmd->callback([args, &exit_code, config_opt, log_opt, dir_opt] {
+    args->use_config_logs = config_opt->count() > 0 && log_opt->count() == 0 && dir_opt->count() == 0;
+    exit_code = Run(*args);
+  });
 }
 
 }  // namespace
