@@ -327,6 +327,24 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
     } else {
       m.Raw("formulas");
     }
+    if (m.Has("priors")) {
+      const YamlReader ps = m.Child("priors");
+      for (const auto& kv : ps.node()) {
+        const std::string name = kv.first.as<std::string>();
+        const YamlReader pr = ps.Child(name);
+        config::ParameterPrior prior;
+        prior.name = name;
+        prior.value = pr.Number("value");
+        prior.sd = pr.Number("sd");
+        prior.location = path + ":" + std::to_string(ps.Line(name));
+        pr.Finish();
+        if (!(prior.sd > 0) || !std::isfinite(prior.value)) ps.Fail(name, "a prior needs a finite value and sd > 0");
+        c.identification.priors.push_back(prior);
+      }
+      ps.Finish();
+    } else {
+      m.Raw("priors");
+    }
     m.Finish();
   }
   c.state_dir = Resolve(base_dir, top.String("state_dir", c.state_dir));

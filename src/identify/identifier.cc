@@ -57,6 +57,49 @@ struct Bound {
   bool fixed;
 };
 
+// A Gaussian prior on parameter i as one residual sqrt(w) (theta_i scale_i - value) / sd, with w
+// the data's noise level (sigma_e^2 times the residuals' autocorrelation time) so that the sum
+// of squares stays the MAP objective of the data's least squares.
+class PriorCost final : public ceres::CostFunction {
+ public:
+  PriorCost(int np, int i, double scale, double value, double sd) : i_(i), scale_(scale), value_(value), sd_(sd) {
+    set_num_residuals(1);
+    mutable_parameter_block_sizes()->push_back(np);
+  }
+  void set_weight(double w) { sqrt_w_ = std::sqrt(w); }
+  bool Evaluate(double const* const* p, double* r, double** jac) const override {
+    r[0] = sqrt_w_ * (p[0][i_] * scale_ - value_) / sd_;
+    if (jac && jac[0]) {
+      std::fill(jac[0], jac[0] + parameter_block_sizes()[0], 0.0);
+      jac[0][i_] = sqrt_w_ * scale_ / sd_;
+    }
+    return true;
+  }
+  int index() const { return i_; }
+  double information_theta() const { return scale_ * scale_ / (sd_ * sd_); }  // 1/var in theta space
+
+ private:
+  int i_;
+  double scale_, value_, sd_;
+  double sqrt_w_ = 0;
+};
+
+// sigma_e^2 * tau of the chunk residuals at theta (the weight of a prior).
+double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const double* theta) {
+  std::vector<std::vector<double>> res;
+  double rss = 0;
+  size_t n = 0;
+  const double* params[] = {theta};
+  for (const auto& cost : costs) {
+    std::vector<double> e(static_cast<size_t>(cost->num_residuals()));
+    cost->Evaluate(params, e.data(), nullptr);
+    for (double x : e) rss += x * x;
+    n += e.size();
+    res.push_back(std::move(e));
+  }
+  return n ? rss / static_cast<double>(n) * IntegratedAutocorrelationTime(res) : 0.0;
+}
+
 }  // namespace
 
 model::Params<double> IdentificationResult::AsParams() const {
@@ -178,6 +221,19 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
     return r;
   }
   if (!fixed.empty()) problem.SetManifold(theta.data(), new ceres::SubsetManifold(np, fixed));
+  std::vector<std::unique_ptr<PriorCost>> priors;
+  for (const config::ParameterPrior& pr : config_.priors) {
+    for (int i = 0; i < np; ++i) {
+      if (spec_.param_name(i) != pr.name || bounds[i].fixed) continue;
+      priors.push_back(std::make_unique<PriorCost>(np, i, scale[i], pr.value, pr.sd));
+      problem.AddResidualBlock(priors.back().get(), nullptr, theta.data());
+    }
+  }
+  double prior_weight = 0;
+  if (!priors.empty()) {
+    prior_weight = NoiseLevel(costs, theta.data());
+    for (auto& pc : priors) pc->set_weight(prior_weight);
+  }
 
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
@@ -190,6 +246,16 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   r.iterations = static_cast<int>(summary.iterations.size());
+  if (!priors.empty() && summary.IsSolutionUsable()) {
+    // The priors' weight was the noise level at the start; refit once if the fit moved it much.
+    const double w = NoiseLevel(costs, theta.data());
+    if (w > 0 && (w > 2 * prior_weight || w < 0.5 * prior_weight)) {
+      prior_weight = w;
+      for (auto& pc : priors) pc->set_weight(prior_weight);
+      ceres::Solve(options, &problem, &summary);
+      r.iterations += static_cast<int>(summary.iterations.size());
+    }
+  }
   r.termination = ceres::TerminationTypeToString(summary.termination_type);
   if (!summary.IsSolutionUsable()) {
     r.reason = "solver failed: " + summary.message;
@@ -230,8 +296,14 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
   Eigen::MatrixXd jtj_f(nf, nf);
   for (int a = 0; a < nf; ++a)
     for (int b = 0; b < nf; ++b) jtj_f(a, b) = jtj(free[a], free[b]);
-  const Eigen::MatrixXd jtj_inv = jtj_f.completeOrthogonalDecomposition().pseudoInverse();
   const double sigma2 = rss / std::max<double>(1.0, static_cast<double>(n_res) - nf);
+  // Prior information in theta space (zero without priors).
+  Eigen::MatrixXd prior_info = Eigen::MatrixXd::Zero(nf, nf);
+  for (const auto& pc : priors) {
+    for (int a = 0; a < nf; ++a) {
+      if (free[a] == pc->index()) prior_info(a, a) += pc->information_theta();
+    }
+  }
 
   // Gradient of EG with respect to theta (free base parameters), by forward-mode autodiff.
   using Jet6 = ceres::Jet<double, 6>;
@@ -247,6 +319,8 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
   // the classical one inflated by the residuals' integrated autocorrelation time, and (with
   // enough chunks) the cluster-robust sandwich over chunks.
   const double tau = IntegratedAutocorrelationTime(chunk_residuals);
+  // Classical: (J'J / (sigma^2 tau) + P)^-1; sandwich bread: (J'J + sigma^2 tau P)^-1.
+  const Eigen::MatrixXd jtj_inv = (jtj_f + sigma2 * tau * prior_info).completeOrthogonalDecomposition().pseudoInverse();
   Eigen::MatrixXd cov = jtj_inv * sigma2 * tau;
   char method[160];
   std::snprintf(method, sizeof method, "autocorrelation-corrected (tau=%.1f samples)", tau);
@@ -327,6 +401,14 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
                             std::to_string(static_cast<int>(100 * pe.se / std::abs(pe.value))) + " %)");
       }
       if (pe.at_bound) rep.notes.push_back(pe.name + " ended on its bound");
+    }
+    for (const auto& pc : priors) {
+      for (const config::ParameterPrior& pr : config_.priors) {
+        if (pr.name == spec_.param_name(pc->index())) {
+          rep.notes.push_back("prior on " + pr.name + ": " + std::to_string(pr.value) + " +- " + std::to_string(pr.sd) +
+                              " (model.priors); its standard error includes the prior");
+        }
+      }
     }
   }
 

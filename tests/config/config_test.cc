@@ -81,6 +81,23 @@ TEST(Config, RejectsInitialOutsideBox) {
 }
 
 // Catches: a role mapped to a signal the DBC does not have, found only at the first frame.
+// Catches: model.priors read wrongly or a meaningless prior accepted silently.
+TEST(Config, ReadsPriorsAndRejectsNonPositiveSdWithLine) {
+  const Config c = ParseConfig(std::string(kMinimal) +
+                                   "model:\n  priors:\n    roll_gradient_rad_per_mps2: {value: 0.009, sd: 0.001}\n",
+                               "car.yaml");
+  ASSERT_EQ(c.identification.priors.size(), 1u);
+  EXPECT_EQ(c.identification.priors[0].name, "roll_gradient_rad_per_mps2");
+  EXPECT_DOUBLE_EQ(c.identification.priors[0].value, 0.009);
+  EXPECT_DOUBLE_EQ(c.identification.priors[0].sd, 0.001);
+  EXPECT_EQ(c.identification.priors[0].location, "car.yaml:10");
+  const std::string e = ErrorOf(std::string(kMinimal) + "model:\n  priors:\n    is: {value: 15, sd: 0}\n");
+  EXPECT_NE(e.find("car.yaml:10"), std::string::npos) << e;
+  EXPECT_NE(e.find("sd > 0"), std::string::npos) << e;
+  EXPECT_NE(ErrorOf(std::string(kMinimal) + "model:\n  priors:\n    is: {value: 15, sd: 1, mean: 3}\n").find("unknown key"),
+            std::string::npos);
+}
+
 TEST(Config, ValidateAgainstDbcNamesMissingSignalAndLine) {
   const Config c = ParseConfig(kMinimal, "car.yaml");
   const dbc::Database db = dbc::ParseDbcText(

@@ -5,6 +5,8 @@
 #pragma once
 
 #include <array>
+#include <string>
+#include <vector>
 #include <optional>
 #include <string>
 #include <vector>
@@ -86,8 +88,19 @@ struct ParameterSpec {
   bool fixed = false;
 };
 
+// A Gaussian prior on one model parameter (model.priors in the YAML): a data-sheet roll
+// gradient, a measured tyre radius... Enters the fit as a residual (p - value)/sd weighted by
+// the data's noise level, and the covariance as information.
+struct ParameterPrior {
+  std::string name;  // a base or effect parameter name, e.g. "roll_gradient_rad_per_mps2"
+  double value = 0;
+  double sd = 0;
+  std::string location;  // file:line, for errors found after loading (unknown parameter)
+};
+
 struct IdentificationConfig {
   std::array<ParameterSpec, 6> params;  // order of ndsid::model::ParamIndex
+  std::vector<ParameterPrior> priors;   // from model.priors; applied when the model has the parameter
   double rate_hz = 50.0;        // decimated rate of the dynamic fit
   double burn_in_s = 1.5;       // residuals discarded at each chunk start (unknown initial state)
   double chunk_s = 60.0;        // long segments are simulated in independent chunks of this length
