@@ -21,16 +21,17 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
       adequacy_(config.adequacy) {
   samples_.reserve(1024);
   // model.priors must name a parameter of the base model, of a library effect or of a formula.
+  if (config.identification.priors.empty()) return;
+  std::vector<std::string> known;
+  const model::ModelSpec base;
+  for (int i = 0; i < base.num_params(); ++i) known.push_back(base.param_name(i));
+  std::vector<std::string> effects = model::BuiltinEffectNames();
+  for (const auto& f : config.model_formulas) effects.push_back(f.name);
+  for (const auto& e : effects) {
+    const model::ModelSpec one = model::ModelSpec::FromNames({e});
+    for (int i = model::kNumParams; i < one.num_params(); ++i) known.push_back(one.param_name(i));
+  }
   for (const config::ParameterPrior& pr : config.identification.priors) {
-    std::vector<std::string> known;
-    const model::ModelSpec base;
-    for (int i = 0; i < base.num_params(); ++i) known.push_back(base.param_name(i));
-    std::vector<std::string> effects = model::BuiltinEffectNames();
-    for (const auto& f : config.model_formulas) effects.push_back(f.name);
-    for (const auto& e : effects) {
-      const model::ModelSpec one = model::ModelSpec::FromNames({e});
-      for (int i = model::kNumParams; i < one.num_params(); ++i) known.push_back(one.param_name(i));
-    }
     if (std::find(known.begin(), known.end(), pr.name) == known.end()) {
       throw ConfigError(pr.location + ": model.priors: '" + pr.name +
                         "' is not a parameter of the base model, a library effect or a formula");

@@ -16,8 +16,6 @@
 // effects on a_y (bias, roll, lever arm) stay in the residual where the diagnosis can find them.
 // The low-passed kinematic estimate only initialises b at a stretch's first sample. Needs yaw
 // rate: without it b stays 0 and the effect is inert.
-#include <algorithm>
-
 #include "builtin_effects.h"
 
 namespace ndsid::model {
