@@ -73,14 +73,7 @@ namespace {
 // data is recovered through the formula. (On this mild synthetic driving the base model absorbs
 // most of an odd cubic term into EG, physics.md §4, so no RMSE comparison is asserted.)
 TEST(FormulaEffect, CubicGainStatedInYamlIsRecovered) {
-  const config::Config c = config::ParseConfig(R"(vehicle: {name: t, wheelbase_m: 2.648, mass_kg: 1900}
-source: {type: log, logs: [x.log]}
-dbc: x.dbc
-signals:
-  steering_wheel_angle: {message: A, signal: B, unit: deg}
-  vehicle_speed: {message: A, signal: C, unit: km/h}
-  lateral_acceleration: {message: A, signal: D, unit: m/s^2}
-model:
+  const config::Config c = config::ParseConfig(std::string(ndsid::testing::kMinimalVehicleYaml) + R"(model:
   effects: [cubic_gain]
   formulas:
     cubic_gain:

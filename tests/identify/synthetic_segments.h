@@ -13,18 +13,21 @@
 
 namespace ndsid::testing {
 
-// The identification settings a vehicle file gets by default (the study's box, m fixed at the
-// data-sheet 1900 kg), through the real config loader.
-inline config::IdentificationConfig DefaultIdentificationConfig() {
-  return config::ParseConfig(R"(
-vehicle: {name: t, wheelbase_m: 2.648, mass_kg: 1900}
+// The smallest vehicle file the config loader accepts (the simulator's car: l 2.648 m, m 1900 kg);
+// tests append the sections they need.
+inline constexpr const char* kMinimalVehicleYaml = R"(vehicle: {name: t, wheelbase_m: 2.648, mass_kg: 1900}
 source: {type: log, logs: [x.log]}
 dbc: x.dbc
 signals:
   steering_wheel_angle: {message: A, signal: B, unit: deg}
   vehicle_speed: {message: A, signal: C, unit: km/h}
   lateral_acceleration: {message: A, signal: D, unit: m/s^2}
-)", "test.yaml").identification;
+)";
+
+// The identification settings a vehicle file gets by default (the study's box, m fixed at the
+// data-sheet 1900 kg), through the real config loader.
+inline config::IdentificationConfig DefaultIdentificationConfig() {
+  return config::ParseConfig(kMinimalVehicleYaml, "test.yaml").identification;
 }
 
 inline model::Params<double> TruthParams() { return {1900, 2700, 75000, 120000, 1.15, 14.8}; }

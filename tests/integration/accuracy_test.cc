@@ -26,7 +26,7 @@ TEST(Accuracy, CleanTwoHoursEgWithinOnePercentAndRmseAtNoiseFloor) {
   EXPECT_LT(std::abs(err) / run.eg_truth, 0.01);
   EXPECT_LT(r.eg_se_rad_per_mps2 / run.eg_truth, 0.01);
   // Noise floor: the true model's RMSE on the same held-out drives.
-  const double floor = id.Rmse(TruthVector(run, id.spec()), run.window.validation);
+  const double floor = NoiseFloor(run, id.spec());
   std::printf("validation RMSE %.4f, noise floor %.4f\n", r.rmse_validation_mps2, floor);
   EXPECT_LT(r.rmse_validation_mps2, 1.10 * floor) << "floor " << floor;
   EXPECT_GT(r.rmse_validation_mps2, 0.9 * floor);
@@ -43,7 +43,7 @@ TEST(AccuracyLong, TenHoursCleanEgWithinOnePercent) {
   std::printf("EG %.4f ± %.4f deg/g, truth %.4f (%+.2f %%)\n", r.eg_deg_per_g, r.eg_se_deg_per_g,
               model::EgToDegPerG(run.eg_truth), 100 * (r.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth);
   EXPECT_LT(std::abs(r.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
-  const double floor = id.Rmse(TruthVector(run, id.spec()), run.window.validation);
+  const double floor = NoiseFloor(run, id.spec());
   EXPECT_LT(r.rmse_validation_mps2, 1.10 * floor);
 }
 

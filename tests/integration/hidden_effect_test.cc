@@ -68,9 +68,7 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   // true values) on the same held-out drives.
   std::vector<std::string> truth_effects{"road_bank"};
   for (const auto& e : c.expected) truth_effects.push_back(e);
-  const auto spec = model::ModelSpec::FromNames(truth_effects);
-  const identify::Identifier truth_model(cfg, run.config->vehicle.wheelbase_m, spec);
-  const double floor = truth_model.Rmse(TruthVector(run, spec), run.window.validation);
+  const double floor = NoiseFloor(run, model::ModelSpec::FromNames(truth_effects));
   std::printf("  validation RMSE %.4f, noise floor %.4f\n", final_fit.rmse_validation_mps2, floor);
   EXPECT_LT(final_fit.rmse_validation_mps2, 1.10 * floor);
   if (!c.expected.empty()) EXPECT_LT(final_fit.rmse_validation_mps2, ladder.rungs.front().fit.rmse_validation_mps2);
@@ -153,6 +151,23 @@ SimulatedRun ExpectReportedConfounded(const char* name, uint64_t seed, const std
   return run;
 }
 
+// base + road_bank + `effect`, fitted with a prior on its parameter; prints the parameter and
+// EG's error and returns the fit.
+identify::IdentificationResult FitWithPrior(const SimulatedRun& run, const std::string& effect,
+                                            const config::ParameterPrior& prior) {
+  config::IdentificationConfig cfg = run.config->identification;
+  cfg.priors.push_back(prior);
+  const identify::Identifier id(cfg, run.config->vehicle.wheelbase_m, model::ModelSpec::FromNames({"road_bank", effect}));
+  const auto fit = id.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
+  EXPECT_TRUE(fit.valid) << fit.reason;
+  for (const auto& p : fit.effect_params) {
+    if (p.name == prior.name) std::printf("  %s %.5f ± %.5f (prior %.5f ± %.5f)\n", p.name.c_str(), p.value, p.se, prior.value, prior.sd);
+  }
+  std::printf("  with the prior: EG %.4f ± %.4f deg/g (%+.2f %%)\n", fit.eg_deg_per_g, fit.eg_se_deg_per_g,
+              100 * (fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth);
+  return fit;
+}
+
 // A lever arm of 0.8 m (a_meas += x_s r'): its signature is a lag like a steering skew's, so the
 // two score alike (measured dRSS 4.03 vs 4.05, uniqueness 0.01 / 0.05). The ladder adds the lag
 // group until the held-out RMSE stops falling; it must end at the noise floor, with lever_arm
@@ -170,9 +185,7 @@ TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
   bool added = false;
   for (const auto& r : ladder.rungs) added |= r.added == "lever_arm";
   EXPECT_TRUE(added);
-  const auto spec = model::ModelSpec::FromNames({"road_bank", "lever_arm"});
-  const identify::Identifier truth_model(cfg, run.config->vehicle.wheelbase_m, spec);
-  const double floor = truth_model.Rmse(TruthVector(run, spec), run.window.validation);
+  const double floor = NoiseFloor(run, model::ModelSpec::FromNames({"road_bank", "lever_arm"}));
   const auto& fit = ladder.rungs.back().fit;
   std::printf("  %s: validation RMSE %.4f, floor %.4f, EG %.4f\n", fit.model.c_str(), fit.rmse_validation_mps2, floor,
               fit.eg_deg_per_g);
@@ -195,17 +208,10 @@ TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
 // sigma carries the prior's uncertainty.
 TEST(HiddenEffectLong, BodyRollReportedConfoundedAndResolvedByAPrior) {
   const SimulatedRun run = ExpectReportedConfounded("roll", 48, "roll_gradient_deg_per_g=5", "roll");
-  config::IdentificationConfig cfg = run.config->identification;
-  const double k = 5 * M_PI / 180 / 9.81;
-  cfg.priors.push_back({"roll_gradient_rad_per_mps2", k, 0.1 * k, "test"});
-  const identify::Identifier id(cfg, run.config->vehicle.wheelbase_m, model::ModelSpec::FromNames({"road_bank", "roll"}));
-  const auto fit = id.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
-  ASSERT_TRUE(fit.valid) << fit.reason;
+  const double k = 5 * M_PI / 180 / 9.81;  // the truth, stated as the prior
+  const auto fit = FitWithPrior(run, "roll", {"roll_gradient_rad_per_mps2", k, 0.1 * k, "test"});
+  ASSERT_TRUE(fit.valid);
   const double err = (fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth;
-  for (const auto& p : fit.effect_params) {
-    if (p.name == "roll_gradient_rad_per_mps2") std::printf("  roll %.5f ± %.5f (truth %.5f)\n", p.value, p.se, k);
-  }
-  std::printf("  with the prior: EG %.4f ± %.4f deg/g (%+.2f %%)\n", fit.eg_deg_per_g, fit.eg_se_deg_per_g, 100 * err);
   EXPECT_LT(std::abs(err), 0.01);
   EXPECT_LT(std::abs(err), 2.5 * fit.eg_se_rad_per_mps2 / run.eg_truth);  // sigma honest about it
 }
@@ -215,17 +221,9 @@ TEST(HiddenEffectLong, BodyRollReportedConfoundedAndResolvedByAPrior) {
 // measured tyre rolling radius as a prior (3 +- 0.5 %) and speed_scale added, EG is within 1 %.
 TEST(HiddenEffectLong, SpeedScaleReportedConfoundedAndResolvedByAPrior) {
   const SimulatedRun run = ExpectReportedConfounded("speed", 49, "speed_scale_pct=3", "speed_scale");
-  config::IdentificationConfig cfg = run.config->identification;
-  cfg.priors.push_back({"speed_scale", 0.03, 0.005, "test"});
-  const identify::Identifier id(cfg, run.config->vehicle.wheelbase_m,
-                                model::ModelSpec::FromNames({"road_bank", "speed_scale"}));
-  const auto fit = id.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
-  ASSERT_TRUE(fit.valid) << fit.reason;
+  const auto fit = FitWithPrior(run, "speed_scale", {"speed_scale", 0.03, 0.005, "test"});
+  ASSERT_TRUE(fit.valid);
   const double err = (fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth;
-  for (const auto& p : fit.effect_params) {
-    if (p.name == "speed_scale") std::printf("  speed scale %.4f ± %.4f (truth 0.03)\n", p.value, p.se);
-  }
-  std::printf("  with the prior: EG %.4f ± %.4f deg/g (%+.2f %%)\n", fit.eg_deg_per_g, fit.eg_se_deg_per_g, 100 * err);
   EXPECT_LT(std::abs(err), 0.01);
 }
 
@@ -250,7 +248,7 @@ TEST(HiddenEffectLong, TyreRelaxationRankedFirstAndRecoveredWhenAdded) {
   const identify::Identifier with(cfg, l, spec);
   const auto fit = with.Identify(run.window.training, run.window.validation, base_fit.AllValues());
   ASSERT_TRUE(fit.valid);
-  const double floor = with.Rmse(TruthVector(run, spec), run.window.validation);
+  const double floor = NoiseFloor(run, spec);
   double sigma = -1;
   for (const auto& p : fit.effect_params) {
     if (p.name == "relaxation_length_m") sigma = p.value;
@@ -293,9 +291,7 @@ TEST(HiddenEffectLong, RoadCrossfallFoundFromTheBareModel) {
   EXPECT_EQ(ladder.rungs[1].added, "road_bank");
   const auto& base = ladder.rungs[0].fit;
   const auto& fit = ladder.rungs[1].fit;
-  const auto spec = model::ModelSpec::FromNames({"road_bank"});
-  const identify::Identifier truth_model(cfg, run.config->vehicle.wheelbase_m, spec);
-  const double floor = truth_model.Rmse(TruthVector(run, spec), run.window.validation);
+  const double floor = NoiseFloor(run, model::ModelSpec::FromNames({"road_bank"}));
   std::printf("  held-out RMSE %.4f -> %.4f (floor %.4f), EG %.4f -> %.4f (truth %.4f)\n", base.rmse_validation_mps2,
               fit.rmse_validation_mps2, floor, base.eg_deg_per_g, fit.eg_deg_per_g, model::EgToDegPerG(run.eg_truth));
   EXPECT_LT(fit.rmse_validation_mps2, 1.10 * floor);

@@ -12,6 +12,7 @@
 #include "ndsid/config/config.h"
 #include "ndsid/config/simulation_config.h"
 #include "ndsid/dbc/dbc_parser.h"
+#include "ndsid/identify/identifier.h"
 #include "ndsid/model/model_spec.h"
 #include "ndsid/sim/candump_writer.h"
 #include "ndsid/sim/simulator.h"
@@ -99,6 +100,13 @@ inline std::vector<double> TruthVector(const SimulatedRun& run, const model::Mod
     p.push_back(v);
   }
   return p;
+}
+
+// The noise floor: the RMSE of the true model (base + `effects` at the simulated values, see
+// TruthVector) on the run's held-out drives, with the run's identification settings.
+inline double NoiseFloor(const SimulatedRun& run, const model::ModelSpec& spec) {
+  const identify::Identifier truth_model(run.config->identification, run.config->vehicle.wheelbase_m, spec);
+  return truth_model.Rmse(TruthVector(run, spec), run.window.validation);
 }
 
 }  // namespace ndsid::testing
