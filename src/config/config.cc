@@ -64,6 +64,11 @@ RoleSignal ReadRole(const YamlReader& parent, Role role) {
       r.Fail("unit", e.what());
     }
     s.timeout_s = Positive(r, "timeout_s", 0.1);
+    s.latency_s = r.Number("latency_s", 0.0);
+    CheckRange(r, "latency_s", s.latency_s, -0.2, 0.5);
+    if (role == Role::kLateralAcceleration && s.latency_s != 0.0) {
+      r.Fail("latency_s", "the lateral acceleration is the time reference: give the other roles' latencies relative to it");
+    }
   }
   r.Finish();
   return s;

@@ -1,5 +1,6 @@
 #include "ndsid/sync/signal_sync.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace ndsid::sync {
@@ -17,9 +18,15 @@ SignalSync::SignalSync(const config::Config& config)
       period_ns_(static_cast<int64_t>(std::llround(1e9 / config.sync.rate_hz))),
       latency_ns_(static_cast<int64_t>(std::llround(config.sync.latency_s * 1e9))),
       max_gap_ns_(static_cast<int64_t>(std::llround(config.sync.max_fill_gap_s * 1e9))) {
+  int64_t max_shift_ns = 0;
   for (int i = 0; i < config::kNumRoles; ++i) {
-    if (config.roles[i]) roles_[i].timeout_ns = static_cast<int64_t>(std::llround(config.roles[i]->timeout_s * 1e9));
+    if (!config.roles[i]) continue;
+    roles_[i].timeout_ns = static_cast<int64_t>(std::llround(config.roles[i]->timeout_s * 1e9));
+    roles_[i].shift_ns = static_cast<int64_t>(std::llround(config.roles[i]->latency_s * 1e9));
+    max_shift_ns = std::max(max_shift_ns, roles_[i].shift_ns);
   }
+  // A role read at t - latency arrives that much later: wait for it before emitting.
+  latency_ns_ += max_shift_ns;
   validity_.resize(config.validity.size());
   for (size_t i = 0; i < config.validity.size(); ++i) {
     validity_[i].timeout_ns = static_cast<int64_t>(std::llround(config.validity[i].timeout_s * 1e9));
@@ -46,6 +53,7 @@ bool SignalSync::AcceptTime(Channel& c, int64_t t_ns, double v) noexcept {
 
 void SignalSync::PushRole(Role role, int64_t t_ns, double value_si) noexcept {
   Channel& c = roles_[static_cast<int>(role)];
+  t_ns -= c.shift_ns;  // time alignment: the instant the value describes
   if (AcceptTime(c, t_ns, value_si)) c.Push({t_ns, value_si});
 }
 

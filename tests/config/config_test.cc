@@ -121,5 +121,19 @@ TEST(Config, ShippedExampleConfigsLoadAndMatchTheirDbc) {
   EXPECT_EQ(c.validity.size(), 2u);
 }
 
+// Catches: a role latency not read, out of range accepted, or set on the time reference.
+TEST(Config, ReadsRoleLatencyAndRejectsItOnTheReference) {
+  std::string yaml = kMinimal;
+  yaml.replace(yaml.find("unit: deg}"), 10, "unit: deg, latency_s: 0.06}");
+  EXPECT_DOUBLE_EQ(ParseConfig(yaml, "car.yaml").role(Role::kSteeringWheelAngle)->latency_s, 0.06);
+  EXPECT_DOUBLE_EQ(ParseConfig(kMinimal, "car.yaml").role(Role::kSpeed)->latency_s, 0.0);
+  std::string far = kMinimal;
+  far.replace(far.find("unit: deg}"), 10, "unit: deg, latency_s: 2}");
+  EXPECT_NE(ErrorOf(far).find("car.yaml:5: signals.steering_wheel_angle.latency_s"), std::string::npos) << ErrorOf(far);
+  std::string ref = kMinimal;
+  ref.replace(ref.find("sign: -1}"), 9, "sign: -1, latency_s: 0.01}");
+  EXPECT_NE(ErrorOf(ref).find("time reference"), std::string::npos) << ErrorOf(ref);
+}
+
 }  // namespace
 }  // namespace ndsid::config

@@ -131,5 +131,25 @@ TEST(SignalSync, DropsAndCountsValuesGoingBackwardsAndNaN) {
   EXPECT_EQ(s.counters().non_finite, 1u);
 }
 
+// Catches: a configured latency ignored, applied with the wrong sign, or a shifted role
+// going stale because the sync stage did not wait for it.
+TEST(SignalSync, ConfiguredLatencyReadsTheRoleEarlier) {
+  auto cfg = TestConfig();
+  cfg.roles[static_cast<int>(Role::kSteeringWheelAngle)]->latency_s = 0.08;  // stamped 80 ms late
+  SignalSync s(cfg);
+  std::vector<Sample> out;
+  FeedRamps(s, out, 1000, 3000);
+  int checked = 0;
+  for (const Sample& x : out) {
+    const double t_ms = x.t_ns / 1e6;
+    if (t_ms < 1100) continue;
+    ASSERT_TRUE(x.valid) << t_ms;
+    EXPECT_NEAR(x.steer_rad, 0.001 * (t_ms + 80), 1e-9) << t_ms;  // the value stamped 80 ms later
+    EXPECT_NEAR(x.lat_accel_mps2, -0.5 + 0.0005 * t_ms, 1e-9);
+    ++checked;
+  }
+  EXPECT_GT(checked, 150);
+}
+
 }  // namespace
 }  // namespace ndsid::sync

@@ -41,6 +41,9 @@ struct RoleSignal {
   std::string unit;       // unit on the bus: deg|rad, km/h|m/s|mph, m/s^2|g, deg/s|rad/s, "" for flags
   double scale_to_si = 1; // sign * unit conversion, so value_si = raw_physical * scale_to_si
   double timeout_s = 0.1; // a value older than this is stale
+  // Time alignment (physics.md §5 step 0): the value is stamped this long after the instant it
+  // describes, relative to the lateral acceleration; the sync stage reads it at t - latency_s.
+  double latency_s = 0;
   std::vector<double> active_values;  // flags: physical values meaning "active" (default {1})
   int line = 0;           // YAML line, for messages
 

@@ -1,6 +1,7 @@
 // Role signals arrive at different rates and phases; SignalSync resamples them onto a fixed
 // grid (default 100 Hz) by linear interpolation (flags: last value), marking a sample invalid
-// when a required role is older than its timeout. Driven only by data timestamps.
+// when a required role is older than its timeout. Driven only by data timestamps. A role with
+// a configured latency (signals.<role>.latency_s) is read at t_bus - latency: time alignment.
 #pragma once
 
 #include <array>
@@ -48,6 +49,7 @@ class SignalSync {
     int size = 0;
     int head = 0;  // index of the newest
     int64_t timeout_ns = 0;
+    int64_t shift_ns = 0;  // signals.<role>.latency_s: values are stored at t_bus - shift
     const Point& newest() const { return ring[head]; }
     const Point& at(int age) const { return ring[(head - age + kHistory) % kHistory]; }
     void Push(Point p);
