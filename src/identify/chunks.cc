@@ -1,8 +1,35 @@
 #include "chunks.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
+#include <string>
 
 namespace ndsid::identify {
+
+// Integrated autocorrelation time of the residuals (1 + 2 sum of the autocorrelation up to the
+// first lag where it turns negative), pooled over chunks: the factor by which strongly
+// correlated 50 Hz residuals overstate the information in the data.
+double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk) {
+  constexpr size_t kMaxLag = 250;
+  std::vector<double> acf(kMaxLag + 1, 0.0);
+  for (const auto& e : residuals_by_chunk) {
+    const size_t n = e.size();
+    for (size_t lag = 0; lag <= std::min(kMaxLag, n ? n - 1 : 0); ++lag) {
+      double s = 0;
+      for (size_t k = lag; k < n; ++k) s += e[k] * e[k - lag];
+      acf[lag] += s;
+    }
+  }
+  if (acf[0] <= 0) return 1.0;
+  double tau = 1.0;
+  for (size_t lag = 1; lag <= kMaxLag; ++lag) {
+    const double rho = acf[lag] / acf[0];
+    if (rho <= 0) break;
+    tau += 2.0 * rho;
+  }
+  return tau;
+}
 
 size_t BurnInSamples(const Chunk& c, double burn_in_s) {
   return static_cast<size_t>(std::ceil(burn_in_s / c.dt_s));
@@ -45,6 +72,19 @@ std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, doubl
     }
   }
   return chunks;
+}
+
+// The current model's parameter vector re-laid out for a larger model: shared parameters by
+// name, new effects at their neutral value.
+std::vector<double> Extend(const model::ModelSpec& from, const std::vector<double>& values, const model::ModelSpec& to) {
+  std::map<std::string, double> by_name;
+  for (int i = 0; i < from.num_params(); ++i) by_name[from.param_name(i)] = values[static_cast<size_t>(i)];
+  std::vector<double> out(static_cast<size_t>(to.num_params()));
+  for (int i = 0; i < to.num_params(); ++i) {
+    const auto it = by_name.find(to.param_name(i));
+    out[static_cast<size_t>(i)] = it != by_name.end() ? it->second : to.effect_param(i)->neutral;
+  }
+  return out;
 }
 
 }  // namespace ndsid::identify

@@ -39,6 +39,14 @@ std::vector<float> EstimateBank(const stats::Segment& segment, double tau_s = 1.
 std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, double burn_in_s);
 size_t BurnInSamples(const Chunk& c, double burn_in_s);
 
+// Integrated autocorrelation time of residual series (1 + 2 sum of the autocorrelation up to
+// the first lag where it turns negative), pooled over chunks, in samples.
+double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk);
+
+// A parameter vector of model `from` re-laid out for model `to`: shared parameters by name,
+// the others at their neutral value.
+std::vector<double> Extend(const model::ModelSpec& from, const std::vector<double>& values, const model::ModelSpec& to);
+
 // Residuals e_k = a_y,meas,k - a_y,model,k of one chunk for k >= burn-in, as a function of the
 // scaled parameters theta (p_i = theta_i * scale_i, so all unknowns are O(1) for the solver).
 class ChunkResidual {

@@ -14,19 +14,6 @@ namespace {
 
 using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// The current model's parameter vector re-laid out for a larger model: shared parameters by
-// name, new effects at their neutral value.
-std::vector<double> Extend(const model::ModelSpec& from, const std::vector<double>& values, const model::ModelSpec& to) {
-  std::map<std::string, double> by_name;
-  for (int i = 0; i < from.num_params(); ++i) by_name[from.param_name(i)] = values[static_cast<size_t>(i)];
-  std::vector<double> out(static_cast<size_t>(to.num_params()));
-  for (int i = 0; i < to.num_params(); ++i) {
-    const auto it = by_name.find(to.param_name(i));
-    out[static_cast<size_t>(i)] = it != by_name.end() ? it->second : to.effect_param(i)->neutral;
-  }
-  return out;
-}
-
 struct Signature {
   const char* name;
   double (*value)(const stats::SegmentSample* s, size_t k, size_t n, double dt, double w);
@@ -248,17 +235,41 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
 }
 
 Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheelbase_m,
-                        const std::vector<std::string>& start_effects, const SegmentList& training,
-                        const SegmentList& validation, const LadderOptions& options) {
+                        const std::vector<std::string>& start_effects, const SegmentList& training_in,
+                        const SegmentList& validation_in, const LadderOptions& options) {
   Ladder ladder;
   std::vector<std::string> effects = start_effects;
   Identifier current(config, wheelbase_m, model::ModelSpec::FromNames(effects));
-  IdentificationResult fit = current.Identify(training, validation, std::optional<std::vector<double>>{});
-  ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});
+  IdentificationResult fit = current.Identify(training_in, validation_in, std::optional<std::vector<double>>{});
   if (!fit.valid) {
+    ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});
     ladder.stop_reason = "the starting model could not be fitted: " + fit.reason;
     return ladder;
   }
+  // Step 0: time alignment. The ladder then works on shifted copies of the data.
+  std::vector<stats::Segment> aligned_training, aligned_validation;
+  SegmentList training = training_in, validation = validation_in;
+  if (options.align) {
+    ladder.before_alignment = fit;
+    ladder.alignment = EstimateRoleLatencies(current, fit.AllValues(), training_in, options.alignment);
+    for (const RoleLatency& l : ladder.alignment) ladder.aligned = ladder.aligned || l.apply;
+    if (ladder.aligned) {
+      aligned_training = AlignSegments(training_in, ladder.alignment);
+      aligned_validation = AlignSegments(validation_in, ladder.alignment);
+      training = Pointers(aligned_training);
+      validation = Pointers(aligned_validation);
+      const IdentificationResult refit = current.Identify(training, validation, std::optional<std::vector<double>>(fit.AllValues()));
+      if (refit.valid) {
+        fit = refit;
+      } else {  // keep the data as recorded
+        ladder.aligned = false;
+        for (RoleLatency& l : ladder.alignment) l.apply = false;
+        training = training_in;
+        validation = validation_in;
+      }
+    }
+  }
+  ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});
   auto held_out = [](const IdentificationResult& r) { return r.rmse_validation_mps2 >= 0 ? r.rmse_validation_mps2 : r.rmse_train_mps2; };
   for (int step = 0; step < options.max_steps; ++step) {
     Diagnosis diag = Diagnose(current, fit.AllValues(), training, options.diagnosis);

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "ndsid/identify/alignment.h"
 #include "ndsid/identify/identifier.h"
 
 namespace ndsid::identify {
@@ -70,16 +71,24 @@ struct LadderOptions {
   // best spurious addition measured gave 2 %.
   double min_relative_improvement = 0.03;
   DiagnosisOptions diagnosis;
+  // Step 0 (physics.md §5): estimate each role's latency relative to a_y and climb the ladder
+  // on data shifted by the significant ones.
+  bool align = true;
+  AlignmentOptions alignment;
 };
 
 struct Ladder {
   std::vector<Rung> rungs;
   std::vector<Diagnosis> diagnoses;  // the diagnosis made at each rung
   std::string stop_reason;
+  std::vector<RoleLatency> alignment;      // step 0 (empty when not asked for)
+  bool aligned = false;                    // some latency applied: rungs are fits on shifted data
+  IdentificationResult before_alignment;   // the starting model on the data as recorded
 };
 
-// base -> + first effect -> + second ...: diagnose, refit with the best candidates, keep an
-// effect when the held-out RMSE falls and BIC agrees; stop when nothing helps.
+// Step 0 (align the roles in time), then base -> + first effect -> + second ...: diagnose,
+// refit with the best candidates, keep an effect when the held-out RMSE falls and BIC agrees;
+// stop when nothing helps.
 Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheelbase_m,
                         const std::vector<std::string>& start_effects, const SegmentList& training,
                         const SegmentList& validation, const LadderOptions& options = {});
