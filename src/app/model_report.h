@@ -106,12 +106,6 @@ void PrintComparison(const Comparison& c);
 // Runs scripts/model_report_plots.py <mode> <dir> in the project venv; false with the reason when not.
 bool RunPlotScript(const std::string& mode, const std::string& dir, std::string* why_not);
 
-// The YAML text with `model: effects:` set to `effects`, everything else (comments included)
-// kept; adds the model section when missing. Throws ConfigError when the result does not parse
-// to that list. `description` says what changed.
-std::string SetModelEffects(const std::string& yaml_text, const std::vector<std::string>& effects,
-                            const std::string& path_for_messages, std::string* description);
-
 std::string HtmlEscape(const std::string& s);
 
 }  // namespace ndsid::app

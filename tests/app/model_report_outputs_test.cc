@@ -72,6 +72,22 @@ TEST(Diagnose, RanksSteerOffsetFirstOnSteerOffsetData) {
   EXPECT_NEAR(j["ranking"][0]["one_step"].get<double>(), kTrueOffsetRad, 0.15 * kTrueOffsetRad);
 }
 
+// Catches: step 0 missing from the report, a role left out, or a skew invented: the simulator
+// stamps each message within one 10 ms tick of its sampling, so no role is off by more.
+TEST(Diagnose, StepZeroReportsEveryRoleLatencyWithinTheSimulatorsTick) {
+  const auto j = ReadJson(kOut / "diagnose_out" / "diagnosis.json");
+  ASSERT_EQ(j["alignment"].size(), 3u) << j.dump(1);
+  for (const auto& l : j["alignment"]) {
+    std::printf("%s %+.1f ± %.1f ms applied %d (%s)\n", l["role"].get<std::string>().c_str(), 1e3 * l["latency_s"].get<double>(),
+                1e3 * l["se_s"].get<double>(), l["applied"].get<bool>(), l["note"].get<std::string>().c_str());
+    if (l["role"] == "steering_wheel_angle") {
+      EXPECT_TRUE(l["determined"].get<bool>());
+      EXPECT_LT(std::abs(l["latency_s"].get<double>()), 0.012);
+    }
+    if (l["role"] == "yaw_rate") EXPECT_FALSE(l["applied"].get<bool>());
+  }
+}
+
 TEST(Diagnose, LadderAddsSteerOffsetAndHeldOutRmseFalls) {
   const auto j = ReadJson(kOut / "diagnose_out" / "diagnosis.json");
   const auto& ladder = j["ladder"];
@@ -95,9 +111,11 @@ TEST(Diagnose, ApplyWritesLadderEffectsIntoConfigAndChangesNothingElse) {
   EXPECT_EQ(cfg.model_effects, j["final_effects"].get<std::vector<std::string>>());
   std::stringstream a(before), b(after);
   std::string la, lb;
-  int changed = 0;
+  int changed = 0, latencies_written = 0;
   while (std::getline(a, la) && std::getline(b, lb)) {
-    if (la != lb) {
+    if (la != lb && lb.find("latency_s: ") != std::string::npos) {
+      ++latencies_written;  // step 0 applied a latency to this role
+    } else if (la != lb) {
       ++changed;
       // The ladder's first effect is the hidden one; it may go on (the simulated roads are
       // banked, so road_bank helps too): the line holds the ladder's final list.
@@ -106,6 +124,9 @@ TEST(Diagnose, ApplyWritesLadderEffectsIntoConfigAndChangesNothingElse) {
     }
   }
   EXPECT_EQ(changed, 1);
+  int applied = 0;
+  for (const auto& l : j["alignment"]) applied += l["applied"].get<bool>() ? 1 : 0;
+  EXPECT_EQ(latencies_written, applied);
   EXPECT_EQ(std::count(before.begin(), before.end(), '\n'), std::count(after.begin(), after.end(), '\n'));
   EXPECT_NE(ReadWholeFile((kOut / "diagnose_out.txt").string()).find("--apply: "), std::string::npos);
 }

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "config_edit.h"
 #include "model_report.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/model/simulate.h"
@@ -26,6 +27,39 @@ std::vector<std::string> ChangedLines(const std::string& a, const std::string& b
     if (!std::getline(sb, lb) || la != lb) out.push_back(la);
   }
   return out;
+}
+
+// Catches: diagnose --apply losing a role's other keys or comment, or writing a latency the
+// configuration does not read back.
+TEST(SetRoleLatencies, WritesFlowAndBlockMappingsAndReplacesAnOldValue) {
+  const std::string text = ReadWholeFile(NDSID_APP_PRISTINE);
+  std::string what;
+  const std::string after = SetRoleLatencies(text, {{config::Role::kSteeringWheelAngle, 0.0625}}, NDSID_APP_PRISTINE, &what);
+  std::printf("%s\n", what.c_str());
+  const config::Config c = config::ParseConfig(after, NDSID_APP_PRISTINE);
+  EXPECT_NEAR(c.role(config::Role::kSteeringWheelAngle)->latency_s, 0.0625, 6e-4);
+  EXPECT_EQ(c.role(config::Role::kSteeringWheelAngle)->ref.signal, config::ParseConfig(text, NDSID_APP_PRISTINE).role(config::Role::kSteeringWheelAngle)->ref.signal);
+  // Applied again (data already aligned, the total written), the old value is replaced.
+  const std::string again = SetRoleLatencies(after, {{config::Role::kSteeringWheelAngle, 0.07}}, NDSID_APP_PRISTINE, nullptr);
+  EXPECT_EQ(std::count(again.begin(), again.end(), '\n'), std::count(text.begin(), text.end(), '\n'));
+  EXPECT_NEAR(config::ParseConfig(again, NDSID_APP_PRISTINE).role(config::Role::kSteeringWheelAngle)->latency_s, 0.07, 6e-4);
+  // Block mapping.
+  const std::string block = std::string(R"(vehicle: {name: t, wheelbase_m: 2.648, mass_kg: 1900}
+source: {type: log, logs: [x.log]}
+dbc: x.dbc
+signals:
+  steering_wheel_angle:
+    message: A
+    signal: B
+    unit: deg  # sensor
+  vehicle_speed: {message: A, signal: C, unit: km/h}
+  lateral_acceleration: {message: A, signal: D, unit: m/s^2}
+)");
+  const std::string b2 = SetRoleLatencies(block, {{config::Role::kSteeringWheelAngle, 0.05}, {config::Role::kSpeed, -0.01}}, "b.yaml", nullptr);
+  const config::Config cb = config::ParseConfig(b2, "b.yaml");
+  EXPECT_NEAR(cb.role(config::Role::kSteeringWheelAngle)->latency_s, 0.05, 6e-4);
+  EXPECT_NEAR(cb.role(config::Role::kSpeed)->latency_s, -0.01, 6e-4);
+  EXPECT_THROW(SetRoleLatencies(block, {{config::Role::kYawRate, 0.05}}, "b.yaml", nullptr), ConfigError);
 }
 
 TEST(SetModelEffects, ReplacesFlowListKeepingEveryOtherLineAndTheComment) {

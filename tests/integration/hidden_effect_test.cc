@@ -20,6 +20,8 @@ struct HiddenCase {
   const char* param;                    // a recovered parameter to check ("" = none)
   double truth_value;                   // in the model's unit
   double tolerance;
+  double steer_skew_s = 0;              // hidden steering skew, found by step 0 (time alignment)
+  bool align = true;                    // run step 0
 };
 
 void PrintDiagnosis(const identify::Diagnosis& d) {
@@ -33,10 +35,26 @@ void PrintDiagnosis(const identify::Diagnosis& d) {
 void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   const SimulatedRun run = SimulateAndReplay(c.name, seed, hours, c.simulated);
   const auto& cfg = run.config->identification;
+  identify::LadderOptions options;
+  options.align = c.align;
   const identify::Ladder ladder = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
-                                                             run.window.training, run.window.validation);
+                                                             run.window.training, run.window.validation, options);
   ASSERT_FALSE(ladder.rungs.empty());
   ASSERT_FALSE(ladder.diagnoses.empty());
+  // Step 0: a hidden skew is found (stated tolerance +-32 ms: a steering lag trades with lv and
+  // Jz); without one, no latency beyond the simulator's message phases (< 10 ms) is applied.
+  for (const auto& l : ladder.alignment) {
+    std::printf("%s: step 0 %s %+.1f ± %.1f ms%s\n", c.name, config::RoleKey(l.role), 1e3 * l.latency_s, 1e3 * l.se_s,
+                l.apply ? " applied" : "");
+    if (l.role != config::Role::kSteeringWheelAngle) continue;
+    if (c.steer_skew_s > 0) {
+      EXPECT_TRUE(l.apply);
+      EXPECT_NEAR(l.latency_s, c.steer_skew_s, 0.032);
+    } else if (l.apply) {
+      EXPECT_LT(std::abs(l.latency_s), 0.012);
+    }
+  }
+  if (c.align) EXPECT_EQ(ladder.alignment.size(), 3u);
   std::printf("%s: first diagnosis\n", c.name);
   PrintDiagnosis(ladder.diagnoses.front());
   for (const auto& r : ladder.rungs) {
@@ -68,6 +86,7 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   // true values) on the same held-out drives.
   std::vector<std::string> truth_effects{"road_bank"};
   for (const auto& e : c.expected) truth_effects.push_back(e);
+  if (c.steer_skew_s > 0 && c.align) truth_effects.push_back("steer_delay");
   const double floor = NoiseFloor(run, model::ModelSpec::FromNames(truth_effects));
   std::printf("  validation RMSE %.4f, noise floor %.4f\n", final_fit.rmse_validation_mps2, floor);
   EXPECT_LT(final_fit.rmse_validation_mps2, 1.10 * floor);
@@ -111,15 +130,27 @@ TEST(HiddenEffectLong, AccelerometerBiasConfoundedWithSteerOffset) {
           43, 1.5);
 }
 
-// Measured: 80 ms hidden, recovered 56 ms (its sensitivity is only 21 % unique: a steering lag
-// trades with lv and Jz); the stated tolerance is +-32 ms (40 %).
-TEST(HiddenEffectLong, SteeringTimeSkew) {
-  RunCase({"delay", {"steer_delay_ms=80"}, {"steer_delay"}, {}, "steer_delay_s", 0.08, 0.032}, 44, 1.5);
+// A signal time skew is what step 0 (time alignment) is for: an 80 ms steering skew is found
+// there and the ladder, on the aligned data, adds nothing. Stated tolerance +-32 ms (40 %): the
+// steering lag's sensitivity is only 21 % unique (it trades with lv and Jz).
+TEST(HiddenEffectLong, SteeringTimeSkewFoundByTimeAlignment) {
+  RunCase({"delay", {"steer_delay_ms=80"}, {}, {}, "", 0, 0, 0.08}, 44, 1.5);
 }
 
+// Without step 0 the same skew is a lag effect for the ladder: steer_delay ranked first and
+// added (measured 56 ms of 80).
+TEST(HiddenEffectLong, SteeringTimeSkewFoundAsLagEffectWithoutAlignment) {
+  RunCase({"delay_noalign", {"steer_delay_ms=80"}, {"steer_delay"}, {}, "steer_delay_s", 0.08, 0.032, 0, false}, 44, 1.5);
+}
+
+// Two hidden effects found one after the other by the ladder (step 0 off, so that the skew is
+// one of the ladder's rungs), and with step 0: the skew there, the offset by the ladder.
 TEST(HiddenEffectLong, TwoEffectsFoundOneAfterTheOther) {
   RunCase({"two", {"steer_offset_deg=1.5", "steer_delay_ms=80"}, {"steer_offset", "steer_delay"}, {}, "steer_offset_rad",
-           1.5 * M_PI / 180, 0.003},
+           1.5 * M_PI / 180, 0.003, 0, false},
+          45, 1.5);
+  RunCase({"two_aligned", {"steer_offset_deg=1.5", "steer_delay_ms=80"}, {"steer_offset"}, {}, "steer_offset_rad",
+           1.5 * M_PI / 180, 0.003, 0.08},
           45, 1.5);
 }
 
@@ -172,11 +203,31 @@ identify::IdentificationResult FitWithPrior(const SimulatedRun& run, const std::
 // two score alike (measured dRSS 4.03 vs 4.05, uniqueness 0.01 / 0.05). The ladder adds the lag
 // group until the held-out RMSE stops falling; it must end at the noise floor, with lever_arm
 // among the additions and EG within 1 % (measured: steer_delay then lever_arm, EG -0.13 %).
+//
+// Step 0 (time alignment) sees the same lag: with it on, the lever arm is taken for a steering
+// skew (measured +15 ms applied), the fit reaches the noise floor and EG stays within 1 %
+// (-0.18 %), but the effect is misnamed. The ladder's part is therefore checked with step 0
+// off, and step 0's outcome separately.
 TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
   const SimulatedRun run = SimulateAndReplay("lever", 47, 1.5, {"lever_arm_m=0.8"});
   const auto& cfg = run.config->identification;
+  {
+    const identify::Ladder aligned = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+                                                                run.window.training, run.window.validation);
+    const auto& fit = aligned.rungs.back().fit;
+    for (const auto& l : aligned.alignment) {
+      std::printf("  step 0 %s %+.1f ± %.1f ms%s\n", config::RoleKey(l.role), 1e3 * l.latency_s, 1e3 * l.se_s,
+                  l.apply ? " applied" : "");
+    }
+    std::printf("  with step 0: %s, validation RMSE %.4f, EG %.4f\n", fit.model.c_str(), fit.rmse_validation_mps2,
+                fit.eg_deg_per_g);
+    EXPECT_LT(fit.rmse_validation_mps2, 1.10 * NoiseFloor(run, model::ModelSpec::FromNames({"road_bank", "lever_arm"})));
+    EXPECT_LT(std::abs(fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
+  }
+  identify::LadderOptions no_align;
+  no_align.align = false;
   const identify::Ladder ladder = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
-                                                             run.window.training, run.window.validation);
+                                                             run.window.training, run.window.validation, no_align);
   ASSERT_FALSE(ladder.diagnoses.empty());
   PrintDiagnosis(ladder.diagnoses.front());
   const std::vector<std::string> lag_group{"lever_arm", "steer_delay", "relaxation"};

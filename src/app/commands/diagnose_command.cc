@@ -1,13 +1,15 @@
 // `ndsid diagnose`: which physical effect is missing, and the error ladder. Replays the logs,
-// fits the starting model, ranks every candidate effect by a score test (identify::Diagnose),
-// then adds effects one at a time while the held-out RMSE falls (identify::ClimbErrorLadder).
-// --apply writes the ladder's effect list into the configuration (model: effects: [...]).
+// fits the starting model, aligns the roles in time (step 0), ranks every candidate effect by a
+// score test (identify::Diagnose), then adds effects one at a time while the held-out RMSE falls
+// (identify::ClimbErrorLadder). --apply writes the ladder's effect list (model: effects: [...])
+// and the applied latencies (signals.<role>.latency_s) into the configuration.
 #include <cstdio>
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
 
 #include "command_registry.h"
+#include "config_edit.h"
 #include "model_report.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/identify/diagnosis.h"
@@ -25,6 +27,7 @@ struct DiagnoseArgs {
   int max_steps = 3;
   double z_threshold = identify::DiagnosisOptions{}.z_threshold;
   bool apply = false;
+  bool no_align = false;
   std::string out;
   std::string hold_out;
 };
@@ -85,6 +88,7 @@ int Run(const DiagnoseArgs& a) {
   opt.max_steps = a.max_steps;
   opt.diagnosis.candidates = candidates;
   opt.diagnosis.z_threshold = a.z_threshold;
+  opt.align = !a.no_align;
   const identify::Ladder ladder = identify::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
                                                              start, data->window.training, data->window.validation, opt);
   std::vector<std::string> final_effects = start;
@@ -99,6 +103,37 @@ int Run(const DiagnoseArgs& a) {
   j["stop_reason"] = ladder.stop_reason;
   std::printf("diagnose %s: start %s, %zu training / %zu held-out segments\n", data->outcome.name.c_str(),
               JoinEffects(start).c_str(), data->window.training.size(), data->window.validation.size());
+  // Step 0: the roles' latencies relative to a_y (already-configured latencies are in the data).
+  std::map<config::Role, double> new_latency;
+  if (!ladder.alignment.empty()) {
+    std::printf("\nstep 0, time alignment (latency relative to a_y; shifts applied when significant):\n");
+    md += "## Step 0: time alignment\n\nEach role's latency relative to the lateral acceleration, estimated by a "
+          "time-shift search; significant ones are applied before the ladder.\n\n| role | latency [ms] | σ [ms] | "
+          "applied | method | note |\n|---|---|---|---|---|---|\n";
+    for (const auto& l : ladder.alignment) {
+      const std::string key = config::RoleKey(l.role);
+      const double configured = data->config.role(l.role) ? data->config.role(l.role)->latency_s : 0.0;
+      if (l.apply) new_latency[l.role] = configured + l.latency_s;
+      std::printf("  %-22s %+8.1f ± %-6.1f ms  %-7s %s%s\n", key.c_str(), 1e3 * l.latency_s, 1e3 * l.se_s,
+                  l.apply ? "applied" : "-", l.method.c_str(), l.note.empty() ? "" : (" (" + l.note + ")").c_str());
+      md += "| " + key + " | " + Fmt("%+.1f", 1e3 * l.latency_s) + " | " + (l.determined ? Fmt("%.1f", 1e3 * l.se_s) : "—") +
+            " | " + (l.apply ? "yes" : "no") + " | " + l.method + " | " + l.note + " |\n";
+      j["alignment"].push_back({{"role", key}, {"latency_s", l.latency_s}, {"se_s", l.se_s}, {"determined", l.determined},
+                                {"applied", l.apply}, {"configured_latency_s", configured}, {"method", l.method},
+                                {"note", l.note}});
+    }
+    if (ladder.aligned) {
+      const auto& b = ladder.before_alignment;
+      const auto& f = ladder.rungs.front().fit;
+      std::printf("  aligned: RMSE train %.4f -> %.4f, held-out %.4f -> %.4f, EG %.3f -> %.3f deg/g\n", b.rmse_train_mps2,
+                  f.rmse_train_mps2, b.rmse_validation_mps2, f.rmse_validation_mps2, b.eg_deg_per_g, f.eg_deg_per_g);
+      md += "\nAligned: RMSE train " + Fmt("%.4f → %.4f", b.rmse_train_mps2, f.rmse_train_mps2) + ", held-out " +
+            Fmt("%.4f → %.4f", b.rmse_validation_mps2, f.rmse_validation_mps2) + ", EG " +
+            Fmt("%.3f → %.3f deg/g", b.eg_deg_per_g, f.eg_deg_per_g) + ". The ladder below works on the aligned data.\n\n";
+    } else {
+      md += "\nNo latency applied: the ladder works on the data as recorded.\n\n";
+    }
+  }
   if (!ladder.diagnoses.empty()) {
     const identify::Diagnosis& d = ladder.diagnoses.front();
     std::printf("\nfirst diagnosis of %s: RMSE %.4f m/s^2 over %zu residuals\n", d.model.c_str(), d.rmse, d.residuals);
@@ -172,13 +207,15 @@ int Run(const DiagnoseArgs& a) {
 
   if (a.apply) {
     const std::string text = ReadWholeFile(a.config);
-    std::string what;
-    const std::string edited = SetModelEffects(text, final_effects, a.config, &what);
+    std::string what, what_latency;
+    std::string edited = SetModelEffects(text, final_effects, a.config, &what);
+    if (!new_latency.empty()) edited = SetRoleLatencies(edited, new_latency, a.config, &what_latency);
     if (edited == text) {
       std::printf("--apply: %s unchanged, model.effects is already %s\n", a.config.c_str(), JoinEffects(final_effects).c_str());
     } else {
       WriteFileAtomically(a.config, edited);
-      std::printf("--apply: %s: %s\n", a.config.c_str(), what.c_str());
+      std::printf("--apply: %s: %s%s\n", a.config.c_str(), what.c_str(),
+                  what_latency.empty() ? "" : ("; " + what_latency).c_str());
     }
   }
   return 0;
@@ -195,7 +232,9 @@ void Register(CLI::App& parent, int& exit_code) {
   cmd->add_option("--z-threshold", args->z_threshold,
                   "Significance filter: |robust score z| a candidate needs before the ladder refits with it")
       ->capture_default_str();
-  cmd->add_flag("--apply", args->apply, "Write the ladder's final effect list into the configuration file");
+  cmd->add_flag("--apply", args->apply,
+                "Write the ladder's final effect list, and the significant latencies of step 0, into the configuration file");
+  cmd->add_flag("--no-align", args->no_align, "Skip step 0 (time alignment of the roles relative to a_y)");
   cmd->add_option("--hold-out", args->hold_out,
                   "Drives to hold out, comma-separated drive numbers (default 'auto': the pipeline's split)");
   cmd->add_option("--out", args->out, "Output folder (default: <report_dir>/diagnose)");
