@@ -114,8 +114,10 @@ int Run(const DiagnoseArgs& a) {
       const std::string key = config::RoleKey(l.role);
       const double configured = data->config.role(l.role) ? data->config.role(l.role)->latency_s : 0.0;
       if (l.apply) new_latency[l.role] = configured + l.latency_s;
-      std::printf("  %-22s %+8.1f ± %-6.1f ms  %-7s %s%s\n", key.c_str(), 1e3 * l.latency_s, 1e3 * l.se_s,
-                  l.apply ? "applied" : "-", l.method.c_str(), l.note.empty() ? "" : (" (" + l.note + ")").c_str());
+      const std::string value = l.se_s > 0 || l.latency_s != 0 ? Fmt("%+8.1f ± %-6.1f ms", 1e3 * l.latency_s, 1e3 * l.se_s)
+                                                                  : std::string("       —          ");
+      std::printf("  %-22s %s  %-7s %s%s\n", key.c_str(), value.c_str(), l.apply ? "applied" : "-", l.method.c_str(),
+                  l.note.empty() ? "" : (" (" + l.note + ")").c_str());
       md += "| " + key + " | " + Fmt("%+.1f", 1e3 * l.latency_s) + " | " + (l.determined ? Fmt("%.1f", 1e3 * l.se_s) : "—") +
             " | " + (l.apply ? "yes" : "no") + " | " + l.method + " | " + l.note + " |\n";
       j["alignment"].push_back({{"role", key}, {"latency_s", l.latency_s}, {"se_s", l.se_s}, {"determined", l.determined},
