@@ -239,8 +239,9 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
   std::vector<std::vector<identify::ChunkOutput>> outs;
   for (const FittedModel& m : c.models) {
     if (!m.fit.valid) throw Error("the " + m.label + " model " + JoinEffects(m.effects) + " has no valid fit: " + m.fit.reason);
-    const identify::Identifier id(data.config.identification, data.config.vehicle.wheelbase_m,
-                                  model::ModelSpec::FromNames(m.effects));
+    identify::Identifier id(data.config.identification, data.config.vehicle.wheelbase_m,
+                            model::ModelSpec::FromNames(m.effects));
+    id.set_drive_loads(m.fit.drive_loads);  // load_change: each drive at its fitted load
     outs.push_back(identify::SimulateChunks(id, m.fit.AllValues(), all));
   }
   const size_t nm = c.models.size();

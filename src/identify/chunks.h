@@ -3,6 +3,7 @@
 
 #include <ceres/dynamic_autodiff_cost_function.h>
 
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -17,10 +18,12 @@ struct Chunk {
   double dt_s;
   int64_t drive_id;
   std::shared_ptr<const std::vector<float>> bank;  // per sample of the chunk (empty: no yaw rate)
+  double load_ratio = 1.0;                         // the drive's load ratio (load_change)
 
   model::InputSeries Inputs() const {
     constexpr size_t kStride = sizeof(stats::SegmentSample) / sizeof(float);
     model::InputSeries in{&samples[0].steer_rad, &samples[0].speed_mps, kStride, n, dt_s};
+    in.load_ratio = load_ratio;
     if (bank && !bank->empty()) {
       in.bank_mps2 = bank->data();
       in.yaw_rate_radps = &samples[0].yaw_rate_radps;  // the bank is estimated only with a yaw rate
@@ -36,7 +39,9 @@ std::vector<float> EstimateBank(const stats::Segment& segment, double tau_s = 1.
 
 // Long segments are cut into chunks of about chunk_s (the last piece joins its predecessor
 // when shorter than half a chunk); chunks with no residual after the burn-in are dropped.
-std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, double burn_in_s);
+// `loads`: load ratio per drive id (load_change); drives not listed get 1.
+std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, double burn_in_s,
+                              const std::map<int64_t, double>& loads = {});
 size_t BurnInSamples(const Chunk& c, double burn_in_s);
 
 // Integrated autocorrelation time of residual series (1 + 2 sum of the autocorrelation up to

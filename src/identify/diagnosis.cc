@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include "chunks.h"
 
@@ -44,6 +45,67 @@ const Signature kSignatures[] = {
 };
 constexpr int kNumSignatures = sizeof(kSignatures) / sizeof(kSignatures[0]);
 
+// The load_change candidate (mass / load per drive, physics.md §4): one sensitivity column per
+// drive, g_d = d(e)/d(rho_d) = -(cv A_cv + ch A_ch) on that drive's chunks (a load ratio scales
+// the tyre forces by 1/rho). Projected against the fitted parameters, which absorb the common
+// mode (all drives alike), the joint score gives the drop in RSS of fitting a ratio per drive;
+// significance from chi^2 = dRSS / (sigma^2 tau) on rank - 1 degrees of freedom.
+struct LoadScore {
+  bool active = false;
+  std::map<int64_t, int> index;          // drive id -> column
+  std::vector<Eigen::VectorXd> a_g;      // per drive: A' g_d (all columns of big)
+  std::vector<double> g_g, g_e;          // per drive: g_d' g_d, g_d' e
+
+  void Add(int64_t drive, const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>& A,
+           const Eigen::Map<const Eigen::VectorXd>& e, const std::vector<double>& x) {
+    const auto [it, added] = index.emplace(drive, static_cast<int>(index.size()));
+    if (added) {
+      a_g.push_back(Eigen::VectorXd::Zero(A.cols()));
+      g_g.push_back(0);
+      g_e.push_back(0);
+    }
+    const int d = it->second;
+    const Eigen::VectorXd g = -(x[model::kStiffFront] * A.col(model::kStiffFront) + x[model::kStiffRear] * A.col(model::kStiffRear));
+    a_g[static_cast<size_t>(d)] += A.transpose() * g;
+    g_g[static_cast<size_t>(d)] += g.squaredNorm();
+    g_e[static_cast<size_t>(d)] += g.dot(e);
+  }
+
+  CandidateScore Score(const Eigen::MatrixXd& JtJ, const Eigen::VectorXd& Jte, const std::vector<int>& fitted, double rss,
+                       size_t n, const std::vector<std::vector<double>>& residuals, double z_threshold) const {
+    const int nd = static_cast<int>(index.size()), nf = static_cast<int>(fitted.size());
+    Eigen::MatrixXd JtG(nf, nd), GtG = Eigen::MatrixXd::Zero(nd, nd);
+    Eigen::VectorXd Gte(nd);
+    for (int d = 0; d < nd; ++d) {
+      for (int f = 0; f < nf; ++f) JtG(f, d) = a_g[static_cast<size_t>(d)][fitted[f]];
+      GtG(d, d) = g_g[static_cast<size_t>(d)];
+      Gte[d] = g_e[static_cast<size_t>(d)];
+    }
+    const Eigen::MatrixXd B = JtJ.completeOrthogonalDecomposition().solve(JtG);
+    const Eigen::MatrixXd P = GtG - JtG.transpose() * B;  // projected G'G
+    const Eigen::VectorXd q = Gte - B.transpose() * Jte;  // projected G'e
+    const auto cod = P.completeOrthogonalDecomposition();
+    const Eigen::VectorXd eta = cod.solve(q);
+    CandidateScore s;
+    s.effect = model::ModelSpec::kLoadChange;
+    s.param = "load ratio spread (sd over drives)";
+    s.unit = "-";
+    s.drss = std::max(0.0, q.dot(eta));
+    s.rmse_predicted = std::sqrt(std::max(0.0, rss - s.drss) / static_cast<double>(n));
+    const double mean = -eta.mean();
+    double var = 0;
+    for (int d = 0; d < nd; ++d) var += (-eta[d] - mean) * (-eta[d] - mean);
+    s.one_step = nd > 1 ? std::sqrt(var / (nd - 1)) : 0.0;
+    s.uniqueness = GtG.trace() > 0 ? P.trace() / GtG.trace() : 0.0;
+    const double sigma2_tau = n ? rss / static_cast<double>(n) * IntegratedAutocorrelationTime(residuals) : 0.0;
+    const double dof = std::max<double>(1.0, static_cast<double>(cod.rank()));
+    const double chi2 = sigma2_tau > 0 ? s.drss / sigma2_tau : 0.0;
+    s.z_robust = (chi2 - dof) / std::sqrt(2 * dof);
+    s.significant = s.z_robust > z_threshold;
+    return s;
+  }
+};
+
 }  // namespace
 
 Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& params, const SegmentList& segments,
@@ -77,11 +139,21 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   }
 
   const auto& cfg = identifier.config();
-  const auto chunks = MakeChunks(segments, cfg.chunk_s, cfg.burn_in_s);
+  const auto chunks = MakeChunks(segments, cfg.chunk_s, cfg.burn_in_s, identifier.drive_loads());
+  LoadScore load;
+  {
+    std::set<int64_t> drives;
+    for (const Chunk& c : chunks) drives.insert(c.drive_id);
+    const bool asked = options.candidates.empty() ||
+                       std::find(options.candidates.begin(), options.candidates.end(), model::ModelSpec::kLoadChange) !=
+                           options.candidates.end();
+    load.active = asked && !spec.per_drive_load() && drives.size() >= 2;
+  }
   const std::vector<double> ones(static_cast<size_t>(np), 1.0);
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(np, np);  // A'A
   Eigen::VectorXd Ae = Eigen::VectorXd::Zero(np);     // A'e
   std::vector<Eigen::VectorXd> chunk_Ae;
+  std::vector<std::vector<double>> chunk_residuals;
   double rss = 0;
   size_t n = 0;
   // Signatures: X'X-style sums for residual correlations, clustered by chunk.
@@ -102,11 +174,13 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
     Eigen::Map<const RowMajor> A(jac.data(), m, np);
     Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
     M += A.transpose() * A;
+    if (load.active) load.Add(c.drive_id, A, ev, x);
     const Eigen::VectorXd ae = A.transpose() * ev;
     Ae += ae;
     chunk_Ae.push_back(ae);
     rss += ev.squaredNorm();
     n += static_cast<size_t>(m);
+    chunk_residuals.push_back(e);
     Eigen::VectorXd xe = Eigen::VectorXd::Zero(kNumSignatures);
     double esum = 0;
     for (int k = 0; k < m; ++k) {
@@ -187,6 +261,9 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
     }
     d.ranked.push_back(s);
   }
+  if (load.active) {
+    d.ranked.push_back(load.Score(JtJ, Jte, fitted, rss, n, chunk_residuals, options.z_threshold));
+  }
   std::sort(d.ranked.begin(), d.ranked.end(), [](const auto& a, const auto& b) { return a.drss > b.drss; });
 
   // Residual correlations with the signature signals (centred), clustered by chunk.
@@ -241,6 +318,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
   std::vector<std::string> effects = start_effects;
   Identifier current(config, wheelbase_m, model::ModelSpec::FromNames(effects));
   IdentificationResult fit = current.Identify(training_in, validation_in, std::optional<std::vector<double>>{});
+  current.set_drive_loads(fit.drive_loads);
   if (!fit.valid) {
     ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});
     ladder.stop_reason = "the starting model could not be fitted: " + fit.reason;
@@ -261,6 +339,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       const IdentificationResult refit = current.Identify(training, validation, std::optional<std::vector<double>>(fit.AllValues()));
       if (refit.valid) {
         fit = refit;
+        current.set_drive_loads(fit.drive_loads);
       } else {  // keep the data as recorded
         ladder.aligned = false;
         for (RoleLatency& l : ladder.alignment) l.apply = false;
@@ -283,6 +362,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       std::vector<std::string> trial = effects;
       trial.push_back(c.effect);
       Identifier next(config, wheelbase_m, model::ModelSpec::FromNames(trial));
+      next.set_drive_loads(fit.drive_loads);  // load_change: start from the current ratios
       std::vector<double> warm = Extend(current.spec(), fit.AllValues(), next.spec());
       IdentificationResult f2 = next.Identify(training, validation, std::optional<std::vector<double>>(warm));
       if (!f2.valid) continue;
@@ -296,6 +376,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
         effects = trial;
         current = next;
         fit = f2;
+        current.set_drive_loads(fit.drive_loads);
         ladder.rungs.push_back({current.spec().Describe(), c.effect, fit, dbic});
         improved = true;
         break;

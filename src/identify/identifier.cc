@@ -119,7 +119,7 @@ double Identifier::Rmse(const model::Params<double>& p, const SegmentList& segme
 }
 
 double Identifier::Rmse(const std::vector<double>& params, const SegmentList& segments, size_t* count) const {
-  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s);
+  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_loads_);
   double sum = 0;
   size_t n = 0;
   std::vector<double> a_y;
@@ -144,11 +144,149 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
 
 IdentificationResult Identifier::Identify(const SegmentList& training, const SegmentList& validation,
                                           const std::optional<std::vector<double>>& warm_start) const {
+  return spec_.per_drive_load() ? IdentifyWithDriveLoads(training, validation, warm_start)
+                                : IdentifyAtLoads(training, validation, warm_start);
+}
+
+void Identifier::set_drive_loads(const std::vector<DriveLoad>& loads) {
+  drive_loads_.clear();
+  for (const DriveLoad& l : loads) drive_loads_[l.drive_id] = l.ratio;
+}
+
+DriveLoad Identifier::FitDriveLoad(const std::vector<double>& params, const SegmentList& segments, int64_t drive,
+                                   double start) const {
+  DriveLoad out;
+  out.drive_id = drive;
+  out.ratio = start;
+  std::map<int64_t, double> loads = drive_loads_;
+  // Residuals and d(a_y,model)/d(ratio) over the drive's chunks at ratio rho.
+  auto evaluate = [&](double rho, std::vector<std::vector<double>>& e, std::vector<double>& z) {
+    constexpr double kStep = 1e-4;
+    e.clear();
+    z.clear();
+    std::vector<double> y0, y1;
+    for (double r : {rho, rho * (1 + kStep)}) {
+      loads[drive] = r;
+      for (const Chunk& c : MakeChunks(segments, config_.chunk_s, config_.burn_in_s, loads)) {
+        std::vector<double> a_y(c.n);
+        model::SimulateModel(spec_, params.data(), wheelbase_m_, c.Inputs(), a_y.data());
+        std::vector<double> res;
+        for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
+          (r == rho ? y0 : y1).push_back(a_y[k]);
+          if (r == rho) res.push_back(c.samples[k].lat_accel_mps2 - a_y[k]);
+        }
+        if (r == rho) e.push_back(std::move(res));
+      }
+    }
+    for (size_t k = 0; k < y0.size(); ++k) z.push_back((y1[k] - y0[k]) / (rho * kStep));
+  };
+  std::vector<std::vector<double>> e;
+  std::vector<double> z;
+  double ztz = 0;
+  for (int it = 0; it < 8; ++it) {
+    evaluate(out.ratio, e, z);
+    double zte = 0;
+    ztz = 0;
+    size_t k = 0;
+    for (const auto& chunk : e) {
+      for (double x : chunk) {
+        zte += z[k] * x;
+        ztz += z[k] * z[k];
+        ++k;
+      }
+    }
+    if (!(ztz > 0)) break;
+    const double next = std::clamp(out.ratio + zte / ztz, 0.5, 2.0);
+    const double step = next - out.ratio;
+    out.ratio = next;
+    if (std::abs(step) < 1e-5) break;
+  }
+  evaluate(out.ratio, e, z);
+  double rss = 0;
+  size_t n = 0;
+  for (const auto& chunk : e) {
+    for (double x : chunk) rss += x * x;
+    n += chunk.size();
+  }
+  if (n > 0 && ztz > 0) out.se = std::sqrt(rss / static_cast<double>(n) * IntegratedAutocorrelationTime(e) / ztz);
+  return out;
+}
+
+IdentificationResult Identifier::IdentifyWithDriveLoads(const SegmentList& training, const SegmentList& validation,
+                                                        const std::optional<std::vector<double>>& warm_start) const {
+  std::map<int64_t, SegmentList> train_drives, held_out_drives;
+  for (const stats::Segment* s : training) train_drives[s->drive_id].push_back(s);
+  for (const stats::Segment* s : validation) held_out_drives[s->drive_id].push_back(s);
+  Identifier work = *this;  // starts from the ratios already set (set_drive_loads), else 1
+  if (train_drives.size() < 2) {
+    work.drive_loads_.clear();
+    IdentificationResult r = work.IdentifyAtLoads(training, validation, warm_start);
+    r.identifiability.notes.push_back("load_change: one training drive, no load ratio to estimate");
+    return r;
+  }
+  // The reference: the first training drive (its load is the one the parameters describe).
+  const int64_t reference = train_drives.begin()->first;
+  std::optional<std::vector<double>> start = warm_start;
+  std::vector<DriveLoad> loads;
+  IdentificationResult fit;
+  // Alternate: the shared parameters at the current ratios, then every drive's ratio with the
+  // parameters held. The common mode (all drives heavier) is exactly a scaling of cv and ch
+  // (a load ratio scales the tyre forces by its inverse), so the ratios are renormalised to the
+  // reference drive and cv, ch rescaled to match before the next fit: that direction, along
+  // which plain alternation crawls, is taken in one step.
+  for (int round = 0; round < 5; ++round) {
+    fit = work.IdentifyAtLoads(training, {}, start);
+    if (!fit.valid) return fit;
+    std::vector<double> values = fit.AllValues();
+    std::vector<DriveLoad> fitted;
+    for (const auto& [drive, segments] : train_drives) {
+      const auto it = work.drive_loads_.find(drive);
+      fitted.push_back(work.FitDriveLoad(values, segments, drive, it != work.drive_loads_.end() ? it->second : 1.0));
+    }
+    const double ref_ratio = fitted.front().ratio;  // train_drives is ordered: the reference first
+    double change = 0;
+    loads.clear();
+    for (DriveLoad l : fitted) {
+      const auto it = work.drive_loads_.find(l.drive_id);
+      l.ratio /= ref_ratio;
+      l.se /= ref_ratio;
+      l.reference = l.drive_id == reference;
+      if (l.reference) l.se = 0;
+      change = std::max(change, std::abs(l.ratio - (it != work.drive_loads_.end() ? it->second : 1.0)));
+      loads.push_back(l);
+    }
+    values[model::kStiffFront] /= ref_ratio;
+    values[model::kStiffRear] /= ref_ratio;
+    start = values;
+    work.set_drive_loads(loads);
+    spdlog::debug("load_change round {}: reference ratio {:.4f}, largest ratio change {:.4f}", round, ref_ratio, change);
+    if (change < 1e-3 && std::abs(ref_ratio - 1) < 1e-3) break;
+  }
+  fit = work.IdentifyAtLoads(training, {}, start);
+  if (!fit.valid) return fit;
+  // Held-out drives: their own load, fitted with the parameters held, then the RMSE.
+  for (const auto& [drive, segments] : held_out_drives) {
+    if (train_drives.count(drive)) continue;
+    DriveLoad l = work.FitDriveLoad(fit.AllValues(), segments, drive, 1.0);
+    l.validation = true;
+    loads.push_back(l);
+  }
+  work.set_drive_loads(loads);
+  fit.drive_loads = loads;
+  if (!validation.empty()) fit.rmse_validation_mps2 = work.Rmse(fit.AllValues(), validation, &fit.residuals_validation);
+  fit.identifiability.notes.push_back(
+      "load_change: m and Jz per drive relative to drive " + std::to_string(reference) +
+      " (the parameters and EG describe its load); ratio standard errors are conditional on the shared parameters");
+  return fit;
+}
+
+IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, const SegmentList& validation,
+                                                 const std::optional<std::vector<double>>& warm_start) const {
   IdentificationResult r;
   r.model = spec_.Describe();
   const auto t_start = std::chrono::steady_clock::now();
   const int np = spec_.num_params();
-  const auto chunks = MakeChunks(training, config_.chunk_s, config_.burn_in_s);
+  const auto chunks = MakeChunks(training, config_.chunk_s, config_.burn_in_s, drive_loads_);
   if (chunks.empty()) {
     r.reason = "no gated segment long enough for the dynamic fit";
     return r;

@@ -10,7 +10,7 @@ std::vector<ChunkOutput> SimulateChunks(const Identifier& identifier, const std:
   std::vector<ChunkOutput> out;
   for (size_t i = 0; i < segments.size(); ++i) {
     const stats::Segment* seg = segments[i];
-    for (const Chunk& c : MakeChunks({seg}, cfg.chunk_s, cfg.burn_in_s)) {
+    for (const Chunk& c : MakeChunks({seg}, cfg.chunk_s, cfg.burn_in_s, identifier.drive_loads())) {
       ChunkOutput o;
       o.segment = seg;
       o.segment_index = i;

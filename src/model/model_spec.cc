@@ -20,6 +20,10 @@ ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names) {
   ModelSpec spec;
   int p = kNumParams, s = 0;
   for (const std::string& name : sorted) {
+    if (name == kLoadChange) {
+      spec.per_drive_load_ = true;
+      continue;
+    }
     auto effect = MakeEffect(name);
     spec.param_offsets_.push_back(p);
     spec.state_offsets_.push_back(s);
@@ -35,6 +39,7 @@ ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names) {
 std::vector<std::string> ModelSpec::effect_names() const {
   std::vector<std::string> out;
   for (const auto& e : effects_) out.push_back(e->info().name);
+  if (per_drive_load_) out.push_back(kLoadChange);
   return out;
 }
 
@@ -62,6 +67,7 @@ std::string ModelSpec::param_unit(int i) const {
 std::string ModelSpec::Describe() const {
   std::string d = "single-track";
   for (const auto& e : effects_) d += " + " + e->info().name;
+  if (per_drive_load_) d += std::string(" + ") + kLoadChange;
   return d;
 }
 

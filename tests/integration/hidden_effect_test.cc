@@ -372,6 +372,60 @@ TEST(HiddenEffectLong, EffectOutsideTheLibraryIsReportedUnexplained) {
   EXPECT_NE(d.unexplained_text.find("steering rate"), std::string::npos) << d.unexplained_text;
 }
 
+// Mass / load change per drive (physics.md §4: "EG drifts between drives", identifiable per
+// drive): drive i carries schedule[i % 4] = 0, 250, 100, 350 kg extra (Jz scaled alike). The
+// diagnosis must rank load_change first, the ladder add it; the fitted load ratios are the true
+// mass ratios to the reference drive (the first training drive) within 0.03, EG is the reference
+// drive's true EG within 1 %, and the held-out RMSE (each held-out drive's ratio fitted with the
+// parameters held) is within 10 % of the true model's.
+TEST(HiddenEffectLong, LoadChangeBetweenDrivesFoundAndEgAtTheReferenceLoad) {
+  ReplayTweaks tweaks;
+  tweaks.mass_schedule_kg = {0, 250, 100, 350};
+  const SimulatedRun run = SimulateAndReplay("load", 53, 2.0, {}, {"road_bank"}, tweaks);
+  const auto& cfg = run.config->identification;
+  const double m0 = run.truth_base[model::kMass];
+  auto true_mass = [&](int64_t drive) { return m0 + tweaks.mass_schedule_kg[static_cast<size_t>(drive) % 4]; };
+  const identify::Ladder ladder = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+                                                             run.window.training, run.window.validation);
+  ASSERT_FALSE(ladder.diagnoses.empty());
+  PrintDiagnosis(ladder.diagnoses.front());
+  for (const auto& r : ladder.rungs) {
+    std::printf("  rung %-44s RMSE %.4f / %.4f  EG %.4f ± %.4f deg/g\n", r.model.c_str(), r.fit.rmse_train_mps2,
+                r.fit.rmse_validation_mps2, r.fit.eg_deg_per_g, r.fit.eg_se_deg_per_g);
+  }
+  EXPECT_EQ(ladder.diagnoses.front().ranked.front().effect, "load_change");
+  ASSERT_GE(ladder.rungs.size(), 2u);
+  EXPECT_EQ(ladder.rungs[1].added, "load_change");
+  const auto& fit = ladder.rungs.back().fit;
+  ASSERT_GE(fit.drive_loads.size(), 3u);
+  int64_t reference = -1;
+  for (const auto& l : fit.drive_loads) {
+    if (l.reference) reference = l.drive_id;
+  }
+  ASSERT_GE(reference, 0);
+  for (const auto& l : fit.drive_loads) {
+    const double truth = true_mass(l.drive_id) / true_mass(reference);
+    std::printf("  drive %lld%s: load ratio %.4f ± %.4f, truth %.4f\n", static_cast<long long>(l.drive_id),
+                l.reference ? " (reference)" : l.validation ? " (held out)" : "", l.ratio, l.se, truth);
+    EXPECT_NEAR(l.ratio, truth, 0.03) << "drive " << l.drive_id;
+  }
+  // EG of the reference drive's load (EG is proportional to m at fixed tyres and lv).
+  const double eg_ref = run.eg_truth * true_mass(reference) / m0;
+  const auto& base = ladder.rungs.front().fit;
+  std::printf("  EG %.4f -> %.4f deg/g, truth at the reference load %.4f (%+.2f %%)\n", base.eg_deg_per_g, fit.eg_deg_per_g,
+              model::EgToDegPerG(eg_ref), 100 * (fit.eg_rad_per_mps2 - eg_ref) / eg_ref);
+  EXPECT_LT(std::abs(fit.eg_rad_per_mps2 - eg_ref) / eg_ref, 0.01);
+  // The true model: truth parameters, each drive at its true mass ratio to the nominal car.
+  identify::Identifier truth_model(cfg, run.config->vehicle.wheelbase_m, model::ModelSpec::FromNames({"road_bank"}));
+  std::vector<identify::DriveLoad> true_loads;
+  for (const auto& l : fit.drive_loads) true_loads.push_back({l.drive_id, true_mass(l.drive_id) / m0, 0, false, false});
+  truth_model.set_drive_loads(true_loads);
+  const auto spec = model::ModelSpec::FromNames({"road_bank"});
+  const double floor = truth_model.Rmse(TruthVector(run, spec), run.window.validation);
+  std::printf("  held-out RMSE %.4f -> %.4f, floor %.4f\n", base.rmse_validation_mps2, fit.rmse_validation_mps2, floor);
+  EXPECT_LT(fit.rmse_validation_mps2, 1.10 * floor);
+}
+
 }  // namespace
 }  // namespace ndsid::testing
 

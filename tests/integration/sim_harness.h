@@ -37,6 +37,7 @@ struct SimulatedRun {
 // daemon does, and the run keeps the history of estimates with their adequacy reports.
 struct ReplayTweaks {
   double identify_every_s = 0;
+  std::vector<double> mass_schedule_kg;  // simulator: extra mass of drive i = schedule[i % size]
 };
 
 inline std::string TempDir(const std::string& name) {
@@ -55,6 +56,7 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.sim.seed = seed;
   run.sim.duration.hours = hours;
   for (const auto& e : effects) config::ApplyEffect(run.sim.effects, e);
+  run.sim.effects.mass_schedule_kg = tweaks.mass_schedule_kg;
   const std::string src = NDSID_SOURCE_DIR;
   run.config = std::make_unique<config::Config>(config::LoadConfig(src + "/config/example_vehicle.yaml"));
   run.config->model_effects = model_effects;

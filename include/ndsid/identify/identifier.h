@@ -6,6 +6,8 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -40,6 +42,15 @@ struct IdentifiabilityReport {
   std::vector<std::string> notes;   // e.g. "m fixed from configuration: only cv/m, ch/m, Jz/m determined"
 };
 
+// A drive's load ratio (load_change): its m and Jz relative to the reference drive's.
+struct DriveLoad {
+  int64_t drive_id = 0;
+  double ratio = 1;
+  double se = 0;           // conditional on the shared parameters (0 for the reference)
+  bool reference = false;  // the drive whose load the parameters (and EG) describe
+  bool validation = false; // a held-out drive (its ratio fitted with the parameters held)
+};
+
 struct IdentificationResult {
   bool valid = false;
   std::string reason;  // why not valid (no data, solver failure, non-finite)
@@ -62,6 +73,7 @@ struct IdentificationResult {
   std::string termination;
   std::string se_method;  // "cluster-robust (N chunks)" or "autocorrelation-corrected"
   IdentifiabilityReport identifiability;
+  std::vector<DriveLoad> drive_loads;  // load_change only: training drives, then held-out ones
 
   model::Params<double> AsParams() const;
   std::vector<double> AllValues() const;  // base then effect parameters (ModelSpec layout)
@@ -94,7 +106,22 @@ class Identifier {
   const config::IdentificationConfig& config() const { return config_; }
   double wheelbase_m() const { return wheelbase_m_; }
 
+  // Per-drive load ratios (load_change) used when simulating: Rmse, SimulateChunks, Diagnose.
+  // Identify estimates them for a load_change model (starting from the ones set here); set them
+  // from its result before simulating.
+  void set_drive_loads(const std::vector<DriveLoad>& loads);
+  const std::map<int64_t, double>& drive_loads() const { return drive_loads_; }
+
  private:
+  IdentificationResult IdentifyAtLoads(const SegmentList& training, const SegmentList& validation,
+                                       const std::optional<std::vector<double>>& warm_start) const;
+  IdentificationResult IdentifyWithDriveLoads(const SegmentList& training, const SegmentList& validation,
+                                              const std::optional<std::vector<double>>& warm_start) const;
+  // The load ratio of one drive minimising its RSS with the parameters held (Gauss-Newton on a
+  // finite-difference sensitivity); se from the curvature and the noise level.
+  DriveLoad FitDriveLoad(const std::vector<double>& params, const SegmentList& drive_segments, int64_t drive,
+                         double start) const;
+  std::map<int64_t, double> drive_loads_;
   config::IdentificationConfig config_;
   double wheelbase_m_;
   model::ModelSpec spec_;

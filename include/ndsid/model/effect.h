@@ -56,6 +56,9 @@ struct InputSeries {
   // Measured yaw rate [rad/s], element k at yaw_rate_radps[k * stride] (nullptr when the bus
   // has none). Used by the road_bank effect's observer.
   const float* yaw_rate_radps = nullptr;
+  // Load ratio of the drive (load_change): m and Jz scaled by it, i.e. the tyre forces by its
+  // inverse. 1 = the reference load.
+  double load_ratio = 1.0;
   double steer(size_t k) const { return steer_rad[k * stride]; }
   double yaw_rate(size_t k) const { return yaw_rate_radps ? yaw_rate_radps[k * stride] : 0.0; }
   double speed(size_t k) const { return speed_mps[k * stride]; }

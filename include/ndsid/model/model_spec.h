@@ -32,7 +32,15 @@ class ModelSpec {
   const EffectParam* effect_param(int i) const;  // nullptr for base parameters
   std::string Describe() const;  // "single-track + steer_offset + roll"
 
+  // "load_change" (physics.md §4, mass / load change): one load ratio per drive, m and Jz of
+  // drive d scaled by rho_d (equivalently its tyre forces by 1/rho_d), relative to a reference
+  // drive. Per-drive values are not part of the fixed parameter vector: the identifier
+  // estimates them (Identifier::Identify) and carries them in the result.
+  static constexpr const char* kLoadChange = "load_change";
+  bool per_drive_load() const { return per_drive_load_; }
+
  private:
+  bool per_drive_load_ = false;
   std::vector<std::shared_ptr<const Effect>> effects_;
   std::vector<int> param_offsets_, state_offsets_;
   int num_effect_params_ = 0;

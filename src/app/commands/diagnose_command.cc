@@ -46,6 +46,7 @@ std::string Separation(const std::string& effect) {
       {"steer_delay", "~ steering rate at all speeds (a constant time shift): align the signals first (physics.md §5.0)"},
       {"relaxation", "~ steering rate at low speed (lag sigma/v): the speed dependence separates it from a time skew"},
       {"tyre_saturation", "only data with |a_y| > 3 m/s^2 separate it from EG"},
+      {"load_change", "per drive: within one drive a load is EG (and cv/m, ch/m) itself; only the drives' differences show it"},
   };
   const auto it = kHints.find(effect);
   return it != kHints.end() ? it->second : "";
@@ -66,6 +67,14 @@ std::string Fmt(const char* fmt, double a, double b = 0, double c = 0) {
 // The added effect's parameters of a rung as "name = v ± se unit".
 std::string AddedParams(const identify::Rung& r) {
   if (r.added.empty()) return "";
+  if (r.added == model::ModelSpec::kLoadChange) {  // per-drive ratios, not in the parameter vector
+    std::string s;
+    for (const auto& l : r.fit.drive_loads) {
+      s += (s.empty() ? "load ratio: drive " : "; drive ") + std::to_string(l.drive_id) +
+           (l.reference ? " 1 (reference)" : Fmt(" %.3f ± %.3f", l.ratio, l.se)) + (l.validation ? " (held out)" : "");
+    }
+    return s;
+  }
   const model::ModelSpec spec = model::ModelSpec::FromNames({r.added});
   std::string s;
   for (int i = model::kNumParams; i < spec.num_params(); ++i) {
