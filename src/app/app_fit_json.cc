@@ -20,6 +20,11 @@ nlohmann::json FitToJson(const identify::IdentificationResult& f) {
   for (const auto& p : f.params) add(p);
   for (const auto& p : f.effect_params) add(p);
   j["values"] = f.AllValues();
+  j["drive_loads"] = nlohmann::json::array();  // load_change: per-drive m, Jz ratio to the reference drive
+  for (const auto& l : f.drive_loads) {
+    j["drive_loads"].push_back({{"drive", l.drive_id}, {"ratio", l.ratio}, {"se", l.se}, {"reference", l.reference},
+                                {"held_out", l.validation}});
+  }
   j["correlation"] = f.correlation;
   j["rmse_train_mps2"] = f.rmse_train_mps2;
   j["rmse_validation_mps2"] = f.rmse_validation_mps2;

@@ -326,6 +326,10 @@ void PrintComparison(const Comparison& c) {
     for (const auto& p : f.effect_params) {
       std::printf("         %s = %.5g ± %.2g %s\n", p.name.c_str(), p.value, p.se, p.unit.c_str());
     }
+    for (const auto& l : f.drive_loads) {
+      std::printf("         load ratio drive %lld = %.4f ± %.4f%s\n", static_cast<long long>(l.drive_id), l.ratio, l.se,
+                  l.reference ? " (reference: EG is at this load)" : l.validation ? " (held out)" : "");
+    }
   }
   std::printf("noise floor %.4f m/s^2 (%s)\n", c.noise_floor, c.noise_floor_source.c_str());
   std::printf("\nwhere it fails: residual e = a_y,meas - a_y,model [m/s^2], bias ± clustered SE (chunks), RMSE\n");
