@@ -68,17 +68,6 @@ void Refine(const Profile& p, double sigma2_tau, RoleLatency& out) {
   out.determined = std::isfinite(out.se_s);
 }
 
-// Noise level sigma^2 * tau of residual series.
-double NoiseLevel(const std::vector<std::vector<double>>& res) {
-  double rss = 0;
-  size_t n = 0;
-  for (const auto& e : res) {
-    for (double x : e) rss += x * x;
-    n += e.size();
-  }
-  return n ? rss / static_cast<double>(n) * IntegratedAutocorrelationTime(res) : 0.0;
-}
-
 std::vector<std::vector<double>> ChunkResiduals(const Identifier& id, const std::vector<double>& params,
                                                 const SegmentList& segments) {
   std::vector<std::vector<double>> res;
@@ -111,7 +100,7 @@ RoleLatency InputProfile(const Identifier& id, const std::vector<double>& params
     p.shift.push_back(s);
     p.rss.push_back(rmse * rmse * static_cast<double>(n));
   }
-  Refine(p, NoiseLevel(ChunkResiduals(id, params, training)), out);
+  Refine(p, ResidualNoiseLevel(ChunkResiduals(id, params, training)), out);
   return out;
 }
 
@@ -191,10 +180,14 @@ std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& identifier, con
   std::vector<RoleLatency> out;
   // The speed is searched on data aligned for the steering (with the joint fit's parameters):
   // a steering skew left in would pull the speed's shift.
+  auto decide = [&](RoleLatency& l) {
+    l.apply = l.determined && std::abs(l.latency_s) > options.z_apply * l.se_s;
+    if (l.determined && !l.apply) l.note = "not significant";
+  };
   std::vector<double> refitted;
   out.push_back(SteeringLatency(identifier, params, training, options, refitted));
   RoleLatency& steer = out.back();
-  steer.apply = steer.determined && std::abs(steer.latency_s) > options.z_apply * steer.se_s;
+  decide(steer);
   if (steer.apply && refitted.size() == params.size()) {
     const std::vector<stats::Segment> aligned = AlignSegments(training, {steer});
     out.push_back(InputProfile(identifier, refitted, Pointers(aligned), Role::kSpeed, options));
@@ -206,9 +199,8 @@ std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& identifier, con
   yaw.method = "not estimated";
   yaw.note = "the yaw rate drives only the 1 s bank observer; its kinematic shift (a_y = v (r + beta')) is confounded with the side-slip rate";
   out.push_back(yaw);
-  for (RoleLatency& l : out) {
-    l.apply = l.determined && std::abs(l.latency_s) > options.z_apply * l.se_s;
-    if (l.determined && !l.apply) l.note = "not significant";
+  decide(out[1]);
+  for (const RoleLatency& l : out) {
     spdlog::info("alignment: {} latency {:.1f} ± {:.1f} ms ({}){}", config::RoleKey(l.role), 1e3 * l.latency_s,
                  1e3 * l.se_s, l.method, l.note.empty() ? "" : ": " + l.note);
   }

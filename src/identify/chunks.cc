@@ -31,6 +31,16 @@ double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& res
   return tau;
 }
 
+double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_chunk) {
+  double rss = 0;
+  size_t n = 0;
+  for (const auto& e : residuals_by_chunk) {
+    for (double x : e) rss += x * x;
+    n += e.size();
+  }
+  return n ? rss / static_cast<double>(n) * IntegratedAutocorrelationTime(residuals_by_chunk) : 0.0;
+}
+
 size_t BurnInSamples(const Chunk& c, double burn_in_s) {
   return static_cast<size_t>(std::ceil(burn_in_s / c.dt_s));
 }

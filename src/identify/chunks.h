@@ -48,6 +48,10 @@ size_t BurnInSamples(const Chunk& c, double burn_in_s);
 // the first lag where it turns negative), pooled over chunks, in samples.
 double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk);
 
+// The noise level of residual series: sigma^2 (mean square) times their autocorrelation time;
+// 0 without residuals.
+double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_chunk);
+
 // A parameter vector of model `from` re-laid out for model `to`: shared parameters by name,
 // the others at their neutral value.
 std::vector<double> Extend(const model::ModelSpec& from, const std::vector<double>& values, const model::ModelSpec& to);

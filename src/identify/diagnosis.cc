@@ -97,7 +97,7 @@ struct LoadScore {
     for (int d = 0; d < nd; ++d) var += (-eta[d] - mean) * (-eta[d] - mean);
     s.one_step = nd > 1 ? std::sqrt(var / (nd - 1)) : 0.0;
     s.uniqueness = GtG.trace() > 0 ? P.trace() / GtG.trace() : 0.0;
-    const double sigma2_tau = n ? rss / static_cast<double>(n) * IntegratedAutocorrelationTime(residuals) : 0.0;
+    const double sigma2_tau = ResidualNoiseLevel(residuals);
     const double dof = std::max<double>(1.0, static_cast<double>(cod.rank()));
     const double chi2 = sigma2_tau > 0 ? s.drss / sigma2_tau : 0.0;
     s.z_robust = (chi2 - dof) / std::sqrt(2 * dof);

@@ -63,17 +63,13 @@ class PriorCost final : public ceres::CostFunction {
 // sigma_e^2 * tau of the chunk residuals at theta (the weight of a prior).
 double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const double* theta) {
   std::vector<std::vector<double>> res;
-  double rss = 0;
-  size_t n = 0;
   const double* params[] = {theta};
   for (const auto& cost : costs) {
     std::vector<double> e(static_cast<size_t>(cost->num_residuals()));
     cost->Evaluate(params, e.data(), nullptr);
-    for (double x : e) rss += x * x;
-    n += e.size();
     res.push_back(std::move(e));
   }
-  return n ? rss / static_cast<double>(n) * IntegratedAutocorrelationTime(res) : 0.0;
+  return ResidualNoiseLevel(res);
 }
 
 }  // namespace
@@ -202,13 +198,7 @@ DriveLoad Identifier::FitDriveLoad(const std::vector<double>& params, const Segm
     if (std::abs(step) < 1e-5) break;
   }
   evaluate(out.ratio, e, z);
-  double rss = 0;
-  size_t n = 0;
-  for (const auto& chunk : e) {
-    for (double x : chunk) rss += x * x;
-    n += chunk.size();
-  }
-  if (n > 0 && ztz > 0) out.se = std::sqrt(rss / static_cast<double>(n) * IntegratedAutocorrelationTime(e) / ztz);
+  if (ztz > 0) out.se = std::sqrt(ResidualNoiseLevel(e) / ztz);
   return out;
 }
 

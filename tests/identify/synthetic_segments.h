@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ndsid/config/config.h"
+#include "ndsid/identify/alignment.h"
 #include "ndsid/model/simulate.h"
 #include "ndsid/stats/segment.h"
 
@@ -88,11 +89,7 @@ inline std::vector<stats::Segment> SyntheticSegments(int count, double seconds, 
   return out;
 }
 
-inline std::vector<const stats::Segment*> Pointers(const std::vector<stats::Segment>& v) {
-  std::vector<const stats::Segment*> p;
-  for (const auto& s : v) p.push_back(&s);
-  return p;
-}
+using identify::Pointers;
 
 }  // namespace ndsid::testing
 
