@@ -1,6 +1,6 @@
 # Install rules for the service (included by the top-level CMakeLists.txt). With
 # -DCMAKE_INSTALL_PREFIX=/usr this gives:
-#   /usr/sbin/ndsidd, /usr/bin/ndsid                     (src/app/CMakeLists.txt)
+#   /usr/sbin/ndsidd, /usr/bin/ndsid                     (src/service, src/desk CMakeLists.txt)
 #   /usr/lib/systemd/system/ndsidd.service               (paths rewritten to the prefix)
 #   /etc/ndsid/vehicle.yaml                              (config/example_vehicle.yaml, state_dir -> /var/lib/ndsid)
 #   /usr/share/ndsid/dbc/ndsid_example.dbc               (referenced by the installed config)

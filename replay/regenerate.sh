@@ -2,11 +2,11 @@
 # Rebuilds the bundled drives in replay/ bit-identically with `ndsid simulate`.
 #   replay/regenerate.sh            regenerate replay/clean and replay/steer_offset in place
 #   replay/regenerate.sh --check    regenerate into a temporary directory and compare the bytes
-# The ndsid binary: $NDSID_BIN, else build/src/app/ndsid. Paths in the commands are relative to
+# The ndsid binary: $NDSID_BIN, else build/bin/ndsid. Paths in the commands are relative to
 # the repository root, so the recorded command lines (truth.yaml) are the same wherever it runs.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-bin="${NDSID_BIN:-$root/build/src/app/ndsid}"
+bin="${NDSID_BIN:-$root/build/bin/ndsid}"
 [[ -x "$bin" ]] || { echo "regenerate.sh: no ndsid binary at $bin (build first or set NDSID_BIN)" >&2; exit 2; }
 
 generate() {  # $1: directory standing in for the repository root (has config/, dbc/, replay/)

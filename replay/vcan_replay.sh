@@ -12,7 +12,7 @@
 # Where vcan is unavailable (no module, no root, a container) it says so and falls back to
 # running ndsidd on the log file itself (type log): same pipeline, no socket.
 #
-# Environment: NDSIDD (default: build/src/app/ndsidd, else ndsidd on PATH), VCAN (default vcan0).
+# Environment: NDSIDD (default: build/bin/ndsidd, else ndsidd on PATH), VCAN (default vcan0).
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -23,7 +23,7 @@ fi
 log="$(realpath "$1")"
 config="$(realpath "${2:-$here/config/example_vehicle.yaml}")"
 vcan="${VCAN:-vcan0}"
-ndsidd="${NDSIDD:-$here/build/src/app/ndsidd}"
+ndsidd="${NDSIDD:-$here/build/bin/ndsidd}"
 [[ -x "$ndsidd" ]] || ndsidd="$(command -v ndsidd || true)"
 [[ -x "$ndsidd" ]] || { echo "vcan_replay: ndsidd not found (build it, or set NDSIDD)" >&2; exit 1; }
 [[ -r "$log" ]] || { echo "vcan_replay: cannot read $log" >&2; exit 1; }

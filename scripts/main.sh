@@ -5,4 +5,4 @@
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$here/scripts/setup.sh"
-exec "${NDSID_BUILD_DIR:-$here/build}/src/app/ndsid" replay "$@"
+exec "${NDSID_BUILD_DIR:-$here/build}/bin/ndsid" replay "$@"

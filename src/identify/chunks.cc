@@ -1,4 +1,4 @@
-#include "chunks.h"
+#include "chunk_cost.h"
 
 #include <algorithm>
 #include <cmath>
@@ -97,6 +97,24 @@ std::vector<double> Extend(const model::ModelSpec& from, const std::vector<doubl
     out[static_cast<size_t>(i)] = it != by_name.end() ? it->second : to.effect_param(i)->neutral;
   }
   return out;
+}
+
+SegmentList Pointers(const std::vector<stats::Segment>& segments) {
+  SegmentList out;
+  for (const auto& s : segments) out.push_back(&s);
+  return out;
+}
+
+void EvaluateChunk(const Chunk& chunk, size_t burn, double wheelbase_m, const model::ModelSpec& spec,
+                   const std::vector<double>& params, std::vector<double>& residuals, std::vector<double>& jacobian) {
+  const std::vector<double> ones(params.size(), 1.0);
+  auto cost = MakeChunkCost(chunk, burn, wheelbase_m, spec, ones);
+  const int m = cost->num_residuals();
+  residuals.assign(static_cast<size_t>(m), 0.0);
+  jacobian.assign(static_cast<size_t>(m) * params.size(), 0.0);
+  const double* pp[] = {params.data()};
+  double* jj[] = {jacobian.data()};
+  cost->Evaluate(pp, residuals.data(), jj);
 }
 
 }  // namespace ndsid::identify

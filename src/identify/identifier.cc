@@ -10,7 +10,7 @@
 #include <memory>
 #include <sstream>
 
-#include "chunks.h"
+#include "chunk_cost.h"
 
 namespace ndsid::identify {
 namespace {

@@ -1,6 +1,6 @@
 #include "ndsid/identify/model_output.h"
 
-#include "chunks.h"
+#include "chunk_cost.h"
 
 namespace ndsid::identify {
 

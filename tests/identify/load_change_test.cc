@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "ndsid/identify/diagnosis.h"
+#include "ndsid/discover/diagnosis.h"
 #include "synthetic_segments.h"
 
 namespace ndsid::testing {
@@ -33,7 +33,7 @@ TEST(LoadChange, RatiosPerDriveAndEgAtTheReferenceLoad) {
   const identify::Identifier base(cfg, kWheelbase);
   const auto base_fit = base.Identify(Pointers(train), Pointers(held_out), std::optional<std::vector<double>>{});
   ASSERT_TRUE(base_fit.valid);
-  const identify::Diagnosis d = identify::Diagnose(base, base_fit.AllValues(), Pointers(train));
+  const discover::Diagnosis d = discover::Diagnose(base, base_fit.AllValues(), Pointers(train));
   ASSERT_FALSE(d.ranked.empty());
   std::printf("first: %s dRSS %.3g z %.1f; base RMSE %.4f / %.4f\n", d.ranked.front().effect.c_str(), d.ranked.front().drss,
               d.ranked.front().z_robust, base_fit.rmse_train_mps2, base_fit.rmse_validation_mps2);

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "ndsid/config/config.h"
-#include "ndsid/identify/alignment.h"
+#include "ndsid/discover/alignment.h"
 #include "ndsid/model/simulate.h"
 #include "ndsid/stats/segment.h"
 

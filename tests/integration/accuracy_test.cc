@@ -92,7 +92,7 @@ TEST(AccuracyLong, AdequacyReachedOnLongCleanRunAndNotEarly) {
   ASSERT_GE(run.history.size(), 8u);
   const auto& cfg = run.config->adequacy;
   bool reached = false;
-  for (const app::Estimate& e : run.history) {
+  for (const pipeline::Estimate& e : run.history) {
     const double err = std::abs(e.fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth;
     std::printf("%.2f gated h: %s EG %.4f (%+.2f %%) %s\n", e.adequacy.gated_hours,
                 adequacy::StateName(e.adequacy.state), e.fit.eg_deg_per_g, 100 * err, e.adequacy.explanation.c_str());

@@ -102,7 +102,7 @@ TEST(DaemonSocketCan, IdentifiesAndMonitorsFromSocketAtRecordedSpeed) {
   int fds[2];
   ASSERT_EQ(::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, fds), 0);
   auto sink = std::make_shared<RecordingSink>();
-  app::DaemonOptions opt;
+  service::DaemonOptions opt;
   opt.config_path = config_path;
   opt.persist_interval_s = 2;
   opt.sink = sink;
@@ -113,7 +113,7 @@ TEST(DaemonSocketCan, IdentifiesAndMonitorsFromSocketAtRecordedSpeed) {
     ids = o.ids;
     return can::SocketCanSource::Adopt(fds[0], "can0", {}, o);
   };
-  app::Daemon daemon(opt, {});
+  service::Daemon daemon(opt, {});
   int rc = -1;
   std::thread runner([&] { rc = daemon.Run(); });
 

@@ -49,10 +49,10 @@ class StateTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  app::LearnedState MakeState() {
+  service::LearnedState MakeState() {
     stats::Accumulator acc(config_, config_.sync.rate_hz);
     FeedDrive(acc, 0, 0, 200);  // 4 km: used
-    app::LearnedState st;
+    service::LearnedState st;
     st.vehicle = config_.vehicle.name;
     st.data_time_ns = 200'000'000'000;
     st.identifications = 3;
@@ -61,7 +61,7 @@ class StateTest : public ::testing::Test {
     adequacy::Tracker tracker(config_.adequacy);
     tracker.Update(acc.gated_hours(), 2e-3, 1e-5, acc.coverage());
     st.adequacy = tracker.Serialize();
-    app::Estimate e;
+    pipeline::Estimate e;
     e.fit.valid = true;
     const double values[] = {1900, 2700, 78000, 122000, 1.15, 14.8};
     for (int i = 0; i < model::kNumParams; ++i) e.fit.params[i].value = values[i];
@@ -154,8 +154,8 @@ TEST(AccumulatorPersistence, NonFiniteSegmentSampleIsRejectedAndTargetUntouched)
 }
 
 TEST_F(StateTest, FileRoundTripsEveryLearnedValue) {
-  const app::LearnedState st = MakeState();
-  const app::LearnedState back = app::DecodeState(app::EncodeState(st), config_.vehicle.name);
+  const service::LearnedState st = MakeState();
+  const service::LearnedState back = service::DecodeState(service::EncodeState(st), config_.vehicle.name);
   EXPECT_EQ(back.accumulator, st.accumulator);
   EXPECT_EQ(back.adequacy, st.adequacy);
   EXPECT_EQ(back.data_time_ns, st.data_time_ns);
@@ -168,49 +168,49 @@ TEST_F(StateTest, FileRoundTripsEveryLearnedValue) {
 }
 
 TEST_F(StateTest, FlippedPayloadByteIsCorrupt) {
-  std::string bytes = app::EncodeState(MakeState());
+  std::string bytes = service::EncodeState(MakeState());
   bytes[bytes.size() - 100] ^= 0x01;
   try {
-    app::DecodeState(bytes, config_.vehicle.name);
+    service::DecodeState(bytes, config_.vehicle.name);
     FAIL() << "no error";
-  } catch (const app::StateFileError& e) {
-    EXPECT_EQ(e.kind(), app::StateFileError::Kind::kCorrupt);
+  } catch (const service::StateFileError& e) {
+    EXPECT_EQ(e.kind(), service::StateFileError::Kind::kCorrupt);
     EXPECT_NE(std::string(e.what()).find("checksum"), std::string::npos) << e.what();
   }
 }
 
 TEST_F(StateTest, TruncatedFileIsCorrupt) {
-  const std::string bytes = app::EncodeState(MakeState());
+  const std::string bytes = service::EncodeState(MakeState());
   for (size_t n : {size_t{0}, size_t{10}, bytes.size() / 2, bytes.size() - 1}) {
     try {
-      app::DecodeState(bytes.substr(0, n), config_.vehicle.name);
+      service::DecodeState(bytes.substr(0, n), config_.vehicle.name);
       FAIL() << "no error at " << n;
-    } catch (const app::StateFileError& e) {
-      EXPECT_EQ(e.kind(), app::StateFileError::Kind::kCorrupt) << n;
+    } catch (const service::StateFileError& e) {
+      EXPECT_EQ(e.kind(), service::StateFileError::Kind::kCorrupt) << n;
     }
   }
 }
 
 TEST_F(StateTest, OtherVehicleIsForeignAndOtherVersionIncompatible) {
-  const std::string bytes = app::EncodeState(MakeState());
+  const std::string bytes = service::EncodeState(MakeState());
   try {
-    app::DecodeState(bytes, "another-car");
+    service::DecodeState(bytes, "another-car");
     FAIL();
-  } catch (const app::StateFileError& e) {
-    EXPECT_EQ(e.kind(), app::StateFileError::Kind::kForeign);
+  } catch (const service::StateFileError& e) {
+    EXPECT_EQ(e.kind(), service::StateFileError::Kind::kForeign);
   }
   std::string v2 = bytes;
   v2.replace(0, 13, "NDSID-STATE 2");
   try {
-    app::DecodeState(v2, config_.vehicle.name);
+    service::DecodeState(v2, config_.vehicle.name);
     FAIL();
-  } catch (const app::StateFileError& e) {
-    EXPECT_EQ(e.kind(), app::StateFileError::Kind::kIncompatible);
+  } catch (const service::StateFileError& e) {
+    EXPECT_EQ(e.kind(), service::StateFileError::Kind::kIncompatible);
   }
 }
 
 TEST_F(StateTest, StoreMovesCorruptFileAsideAndStartsFresh) {
-  app::StateStore store(dir_.string(), config_.vehicle.name);
+  service::StateStore store(dir_.string(), config_.vehicle.name);
   store.Save(MakeState());
   ASSERT_TRUE(store.Load().state);
   std::string bytes = ReadWholeFile(store.path());
@@ -226,10 +226,10 @@ TEST_F(StateTest, StoreMovesCorruptFileAsideAndStartsFresh) {
 
 TEST_F(StateTest, StoreNeverLoadsAnotherVehiclesFileAndKeepsIt) {
   // Two names that map to the same file name: the header tells them apart.
-  app::StateStore mine(dir_.string(), "car/1");
-  app::StateStore theirs(dir_.string(), "car:1");
+  service::StateStore mine(dir_.string(), "car/1");
+  service::StateStore theirs(dir_.string(), "car:1");
   ASSERT_EQ(mine.path(), theirs.path());
-  app::LearnedState st = MakeState();
+  service::LearnedState st = MakeState();
   st.vehicle = "car:1";
   theirs.Save(st);
   const auto r = mine.Load();
@@ -242,11 +242,11 @@ TEST_F(StateTest, StoreNeverLoadsAnotherVehiclesFileAndKeepsIt) {
 
 TEST_F(StateTest, RestoreDropsEstimateOutsideParameterBoxButKeepsStatistics) {
   const dbc::Database db = dbc::ParseDbcFile(config_.dbc);
-  app::Pipeline pipeline(config_, db);
-  app::LearnedState st = MakeState();
+  pipeline::Pipeline pipeline(config_, db);
+  service::LearnedState st = MakeState();
   st.last_estimate->fit.params[model::kSteerRatio].value = -14.8;  // openpilot's poisoned cache
   std::string dropped;
-  app::RestoreState(pipeline, config_, st, dropped);
+  service::RestoreState(pipeline, config_, st, dropped);
   EXPECT_NE(dropped.find("is = -14.8 outside"), std::string::npos) << dropped;
   EXPECT_FALSE(pipeline.last_estimate());
   EXPECT_GT(pipeline.accumulator().gated_hours(), 0.05);
@@ -254,10 +254,10 @@ TEST_F(StateTest, RestoreDropsEstimateOutsideParameterBoxButKeepsStatistics) {
 
 TEST_F(StateTest, RestoreKeepsPlausibleEstimateAndWaitsForNewData) {
   const dbc::Database db = dbc::ParseDbcFile(config_.dbc);
-  app::Pipeline pipeline(config_, db);
-  const app::LearnedState st = MakeState();
+  pipeline::Pipeline pipeline(config_, db);
+  const service::LearnedState st = MakeState();
   std::string dropped;
-  app::RestoreState(pipeline, config_, st, dropped);
+  service::RestoreState(pipeline, config_, st, dropped);
   EXPECT_EQ(dropped, "");
   ASSERT_TRUE(pipeline.last_estimate());
   EXPECT_EQ(pipeline.last_estimate()->fit.eg_rad_per_mps2, st.last_estimate->fit.eg_rad_per_mps2);
@@ -267,17 +267,17 @@ TEST_F(StateTest, RestoreKeepsPlausibleEstimateAndWaitsForNewData) {
 
 TEST_F(StateTest, RestoreRejectsNonFiniteStatisticsAsCorrupt) {
   const dbc::Database db = dbc::ParseDbcFile(config_.dbc);
-  app::Pipeline pipeline(config_, db);
-  app::LearnedState st = MakeState();
+  pipeline::Pipeline pipeline(config_, db);
+  service::LearnedState st = MakeState();
   adequacy::Tracker tracker(config_.adequacy);
   tracker.Update(0.1, std::nan(""), 1e-5, stats::Coverage{});
   st.adequacy = tracker.Serialize();
   std::string dropped;
   try {
-    app::RestoreState(pipeline, config_, st, dropped);
+    service::RestoreState(pipeline, config_, st, dropped);
     FAIL();
-  } catch (const app::StateFileError& e) {
-    EXPECT_EQ(e.kind(), app::StateFileError::Kind::kCorrupt);
+  } catch (const service::StateFileError& e) {
+    EXPECT_EQ(e.kind(), service::StateFileError::Kind::kCorrupt);
   }
   EXPECT_EQ(pipeline.accumulator().gated_hours(), 0.0);
 }

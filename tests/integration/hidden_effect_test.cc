@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "ndsid/identify/diagnosis.h"
+#include "ndsid/discover/diagnosis.h"
 #include "sim_harness.h"
 
 namespace ndsid::testing {
@@ -24,7 +24,7 @@ struct HiddenCase {
   bool align = true;                    // run step 0
 };
 
-void PrintDiagnosis(const identify::Diagnosis& d) {
+void PrintDiagnosis(const discover::Diagnosis& d) {
   for (const auto& c : d.ranked) {
     std::printf("  %-16s dRSS %.3g  one-step %+.4g %s  uniq %.2f  z %+.1f%s\n", c.effect.c_str(), c.drss, c.one_step,
                 c.unit.c_str(), c.uniqueness, c.z_robust, c.significant ? "  significant" : "");
@@ -35,9 +35,9 @@ void PrintDiagnosis(const identify::Diagnosis& d) {
 void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   const SimulatedRun run = SimulateAndReplay(c.name, seed, hours, c.simulated);
   const auto& cfg = run.config->identification;
-  identify::LadderOptions options;
+  discover::LadderOptions options;
   options.align = c.align;
-  const identify::Ladder ladder = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
                                                              run.window.training, run.window.validation, options);
   ASSERT_FALSE(ladder.rungs.empty());
   ASSERT_FALSE(ladder.diagnoses.empty());
@@ -164,7 +164,7 @@ SimulatedRun ExpectReportedConfounded(const char* name, uint64_t seed, const std
                                 model::ModelSpec::FromNames({"road_bank"}));
   const auto fit = id.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
   EXPECT_TRUE(fit.valid);
-  const identify::Diagnosis d = identify::Diagnose(id, fit.AllValues(), run.window.training, {});
+  const discover::Diagnosis d = discover::Diagnose(id, fit.AllValues(), run.window.training, {});
   PrintDiagnosis(d);
   bool seen = false;
   for (const auto& c : d.ranked) {
@@ -212,7 +212,7 @@ TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
   const SimulatedRun run = SimulateAndReplay("lever", 47, 1.5, {"lever_arm_m=0.8"});
   const auto& cfg = run.config->identification;
   {
-    const identify::Ladder aligned = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+    const discover::Ladder aligned = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
                                                                 run.window.training, run.window.validation);
     const auto& fit = aligned.rungs.back().fit;
     for (const auto& l : aligned.alignment) {
@@ -224,9 +224,9 @@ TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
     EXPECT_LT(fit.rmse_validation_mps2, 1.10 * NoiseFloor(run, model::ModelSpec::FromNames({"road_bank", "lever_arm"})));
     EXPECT_LT(std::abs(fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
   }
-  identify::LadderOptions no_align;
+  discover::LadderOptions no_align;
   no_align.align = false;
-  const identify::Ladder ladder = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
                                                              run.window.training, run.window.validation, no_align);
   ASSERT_FALSE(ladder.diagnoses.empty());
   PrintDiagnosis(ladder.diagnoses.front());
@@ -291,7 +291,7 @@ TEST(HiddenEffectLong, TyreRelaxationRankedFirstAndRecoveredWhenAdded) {
   const identify::Identifier base(cfg, l, model::ModelSpec::FromNames({"road_bank"}));
   const auto base_fit = base.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
   ASSERT_TRUE(base_fit.valid);
-  const identify::Diagnosis d = identify::Diagnose(base, base_fit.AllValues(), run.window.training, {});
+  const discover::Diagnosis d = discover::Diagnose(base, base_fit.AllValues(), run.window.training, {});
   PrintDiagnosis(d);
   ASSERT_FALSE(d.ranked.empty());
   EXPECT_EQ(d.ranked.front().effect, "relaxation");
@@ -333,7 +333,7 @@ TEST(HiddenEffectLong, TyreSaturationFoundAddedAndEgBiasRemoved) {
 TEST(HiddenEffectLong, RoadCrossfallFoundFromTheBareModel) {
   const SimulatedRun run = SimulateAndReplay("crossfall", 7, 2.0, {}, {});
   const auto& cfg = run.config->identification;
-  const identify::Ladder ladder = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {},
+  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {},
                                                              run.window.training, run.window.validation);
   ASSERT_FALSE(ladder.diagnoses.empty());
   PrintDiagnosis(ladder.diagnoses.front());
@@ -361,11 +361,11 @@ TEST(HiddenEffectLong, EffectOutsideTheLibraryIsReportedUnexplained) {
                                 model::ModelSpec::FromNames({"road_bank"}));
   const auto fit = id.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
   ASSERT_TRUE(fit.valid);
-  identify::DiagnosisOptions opt;
+  discover::DiagnosisOptions opt;
   for (const auto& n : model::BuiltinEffectNames()) {
     if (n != "steer_delay" && n != "relaxation" && n != "road_bank") opt.candidates.push_back(n);
   }
-  const identify::Diagnosis d = identify::Diagnose(id, fit.AllValues(), run.window.training, opt);
+  const discover::Diagnosis d = discover::Diagnose(id, fit.AllValues(), run.window.training, opt);
   PrintDiagnosis(d);
   for (const auto& s : d.signatures) std::printf("  signature %-45s r %+.3f z %+.1f\n", s.signal.c_str(), s.correlation, s.z_robust);
   EXPECT_TRUE(d.unexplained) << "expected unexplained structure";
@@ -385,7 +385,7 @@ TEST(HiddenEffectLong, LoadChangeBetweenDrivesFoundAndEgAtTheReferenceLoad) {
   const auto& cfg = run.config->identification;
   const double m0 = run.truth_base[model::kMass];
   auto true_mass = [&](int64_t drive) { return m0 + tweaks.mass_schedule_kg[static_cast<size_t>(drive) % 4]; };
-  const identify::Ladder ladder = identify::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
                                                              run.window.training, run.window.validation);
   ASSERT_FALSE(ladder.diagnoses.empty());
   PrintDiagnosis(ladder.diagnoses.front());

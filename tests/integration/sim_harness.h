@@ -16,7 +16,7 @@
 #include "ndsid/model/model_spec.h"
 #include "ndsid/sim/candump_writer.h"
 #include "ndsid/sim/simulator.h"
-#include "pipeline.h"
+#include "ndsid/pipeline/pipeline.h"
 #include "replay_runner.h"
 
 namespace ndsid::testing {
@@ -25,11 +25,11 @@ struct SimulatedRun {
   config::SimulationConfig sim;
   std::unique_ptr<config::Config> config;
   std::unique_ptr<dbc::Database> db;
-  std::unique_ptr<app::Pipeline> pipeline;
-  app::WindowSnapshot window;
+  std::unique_ptr<pipeline::Pipeline> pipeline;
+  pipeline::WindowSnapshot window;
   double eg_truth = 0;                // rad/(m/s^2)
   std::vector<double> truth_base;     // m, Jz, cv, ch, lv, is
-  std::vector<app::Estimate> history; // periodic estimates (ReplayOptions::identify_periodically)
+  std::vector<pipeline::Estimate> history; // periodic estimates (ReplayOptions::identify_periodically)
 };
 
 // How the log is replayed: by default only read (the tests fit the window themselves); with
@@ -71,11 +71,11 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.truth_base = {v.mass_kg, v.yaw_inertia_kgm2, v.cornering_stiffness_front_npr, v.cornering_stiffness_rear_npr,
                     v.cg_to_front_m, v.steering_ratio};
   run.eg_truth = model::SelfSteerGradient(model::Params<double>::FromArray(run.truth_base.data()), v.wheelbase_m);
-  run.pipeline = std::make_unique<app::Pipeline>(*run.config, *run.db);
-  app::ReplayOptions opt;
+  run.pipeline = std::make_unique<pipeline::Pipeline>(*run.config, *run.db);
+  desk::ReplayOptions opt;
   opt.logs = {log};
   opt.identify_periodically = tweaks.identify_every_s > 0;
-  run.history = app::RunReplay(*run.pipeline, *run.config, opt).history;
+  run.history = desk::RunReplay(*run.pipeline, *run.config, opt).history;
   run.window = run.pipeline->Snapshot();
   std::filesystem::remove_all(std::filesystem::path(log).parent_path());
   return run;

@@ -1,0 +1,52 @@
+// Step 0 of the diagnosis (physics.md §5): align the signals in time. Each role's latency
+// relative to the lateral acceleration is estimated by a time-shift search, because a skew
+// left in the data (10-150 ms of gateway latency is common) masquerades as a lag effect.
+//   steering: profile of the model's RSS over shifts of the steering (parameters held), then a
+//             joint refit of the model and the shift (the steer_delay term), which gives the
+//             standard error with the parameters free;
+//   speed:    profile of the model's RSS over shifts of the speed (parameters held);
+//   yaw rate: not estimated (listed with the reason): it drives only the bank observer, whose
+//             1 s time constant makes a gateway skew immaterial, and its kinematic shift
+//             (a_y = v (r + beta')) is confounded with the side-slip rate: tried, it found
+//             +11 ms on exact synthetic data without skew.
+// A latency is applied when it is determined (minimum inside the searched range) and
+// significant (|latency| > z_apply standard errors, autocorrelation-corrected).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ndsid/config/config.h"
+#include "ndsid/identify/chunks.h"
+#include "ndsid/identify/identifier.h"
+
+namespace ndsid::discover {
+
+struct RoleLatency {
+  config::Role role = config::Role::kSteeringWheelAngle;
+  double latency_s = 0;     // the role's value is stamped this much later than a_y's
+  double se_s = 0;          // standard error (0 when not determined)
+  bool determined = false;  // a minimum inside the searched range, finite standard error
+  bool apply = false;       // determined and significant: the data are shifted by it
+  std::string method;       // how it was estimated
+  std::string note;         // why not determined / not applied ("" otherwise)
+};
+
+struct AlignmentOptions {
+  double min_s = -0.1;   // searched shifts (the steer_delay box)
+  double max_s = 0.3;
+  double step_s = 0.01;  // grid of the profile; the minimum is refined by a parabola
+  double z_apply = 3.0;  // |latency| / se needed before the data are shifted
+};
+
+// params: full vector of identifier.spec() fitted on `training` (unaligned).
+std::vector<RoleLatency> EstimateRoleLatencies(const identify::Identifier& identifier, const std::vector<double>& params,
+                                               const identify::SegmentList& training, const AlignmentOptions& options = {});
+
+// Copies of the segments with every role marked `apply` read at t + latency (linear
+// interpolation, held at the segment's ends): what the sync stage produces with
+// signals.<role>.latency_s set to those values.
+std::vector<stats::Segment> AlignSegments(const identify::SegmentList& segments, const std::vector<RoleLatency>& latencies);
+
+
+}  // namespace ndsid::discover

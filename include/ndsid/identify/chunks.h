@@ -1,0 +1,68 @@
+// Segments cut into independently simulated chunks (the unit of output-error simulation: each
+// starts from rest after a burn-in), their residual noise level, and one chunk's residuals and
+// Jacobian. No Ceres here: the cost functor is private to the identify stage (chunk_cost.h).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "ndsid/identify/identifier.h"
+#include "ndsid/model/simulate.h"
+
+namespace ndsid::identify {
+
+struct Chunk {
+  const stats::SegmentSample* samples;
+  size_t n;
+  double dt_s;
+  int64_t drive_id;
+  std::shared_ptr<const std::vector<float>> bank;  // per sample of the chunk (empty: no yaw rate)
+  double load_ratio = 1.0;                         // the drive's load ratio (load_change)
+
+  model::InputSeries Inputs() const {
+    constexpr size_t kStride = sizeof(stats::SegmentSample) / sizeof(float);
+    model::InputSeries in{&samples[0].steer_rad, &samples[0].speed_mps, kStride, n, dt_s};
+    in.load_ratio = load_ratio;
+    if (bank && !bank->empty()) {
+      in.bank_mps2 = bank->data();
+      in.yaw_rate_radps = &samples[0].yaw_rate_radps;  // the bank is estimated only with a yaw rate
+    }
+    return in;
+  }
+};
+
+// Road bank from the kinematic residual, g sin(theta) = v (beta' + r) - a_y,meas ~ v r - a_y,meas,
+// low-passed forwards and backwards (zero phase) with time constant tau_s to remove the
+// transient v beta' and the noise. Empty when the segment has no yaw rate.
+std::vector<float> EstimateBank(const stats::Segment& segment, double tau_s = 1.0);
+
+// Long segments are cut into chunks of about chunk_s (the last piece joins its predecessor
+// when shorter than half a chunk); chunks with no residual after the burn-in are dropped.
+// `loads`: load ratio per drive id (load_change); drives not listed get 1.
+std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, double burn_in_s,
+                              const std::map<int64_t, double>& loads = {});
+size_t BurnInSamples(const Chunk& c, double burn_in_s);
+
+// Integrated autocorrelation time of residual series (1 + 2 sum of the autocorrelation up to
+// the first lag where it turns negative), pooled over chunks, in samples.
+double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk);
+
+// The noise level of residual series: sigma^2 (mean square) times their autocorrelation time;
+// 0 without residuals.
+double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_chunk);
+
+// A parameter vector of model `from` re-laid out for model `to`: shared parameters by name,
+// the others at their neutral value.
+std::vector<double> Extend(const model::ModelSpec& from, const std::vector<double>& values, const model::ModelSpec& to);
+
+// Residuals e (k >= burn) of one chunk of `spec` at the full parameter vector `params`, and
+// their Jacobian d(a_y,meas - a_y,model)/d(params), row-major (residuals x spec.num_params()),
+// by automatic differentiation. The discovery stage's score tests are built on it.
+void EvaluateChunk(const Chunk& chunk, size_t burn, double wheelbase_m, const model::ModelSpec& spec,
+                   const std::vector<double>& params, std::vector<double>& residuals, std::vector<double>& jacobian);
+
+// Pointers to the segments, for the fitting functions.
+SegmentList Pointers(const std::vector<stats::Segment>& segments);
+
+}  // namespace ndsid::identify

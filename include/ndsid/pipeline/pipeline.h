@@ -1,0 +1,121 @@
+// The whole estimator, composed: frames -> roles -> synchronised samples -> gate -> statistics
+// and window -> (periodically) identification -> adequacy. Shared by `ndsid replay` and the
+// daemon; driven only by data timestamps, so live and replay take one code path.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ndsid/adequacy/adequacy.h"
+#include "ndsid/can/can_frame.h"
+#include "ndsid/config/config.h"
+#include "ndsid/dbc/database.h"
+#include "ndsid/gate/gate.h"
+#include "ndsid/identify/identifier.h"
+#include "ndsid/stats/accumulator.h"
+#include "ndsid/sync/role_extractor.h"
+#include "ndsid/sync/signal_sync.h"
+
+namespace ndsid::pipeline {
+
+// Everything one identification produced, with the state of the data behind it.
+struct Estimate {
+  int64_t data_time_ns = 0;          // time of the newest sample when it was computed
+  identify::IdentificationResult fit;
+  stats::SteadyStateEstimate steady_state;
+  adequacy::Report adequacy;
+  double gated_hours = 0;
+  double window_hours = 0;
+  size_t training_segments = 0;
+  size_t validation_segments = 0;
+};
+
+// The window split into training and held-out drives (every k-th drive validates, k from
+// identification.validation_fraction), as an immutable snapshot another thread may fit.
+struct WindowSnapshot {
+  std::vector<std::shared_ptr<const stats::Segment>> keep_alive;
+  identify::SegmentList training;
+  identify::SegmentList validation;
+  double gated_hours = 0;
+  double window_hours = 0;
+  int64_t data_time_ns = 0;
+  stats::SteadyStateEstimate steady_state;
+  stats::Coverage coverage;
+};
+
+class Pipeline {
+ public:
+  // Throws ConfigError when the configuration does not fit the DBC. config/db must outlive this.
+  Pipeline(const config::Config& config, const dbc::Database& db);
+
+  // The reading path: noexcept, O(frames), never waits on identification.
+  void ProcessFrames(std::span<const can::CanFrame> frames, const std::vector<std::string>& bus_names) noexcept;
+  void Finish();  // end of data: flush sync, close segments and drives
+
+  // Identification is due every identification.period_s of data time once new gated data exist.
+  bool IdentificationDue() const;
+  WindowSnapshot Snapshot() const;
+  // Fits a snapshot (may run on a worker thread; touches no pipeline state).
+  static identify::IdentificationResult Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
+                                            const std::optional<std::vector<double>>& warm_start);
+  // Records a finished fit: updates adequacy and the last estimate (reading-thread side).
+  const Estimate& Accept(const WindowSnapshot& snap, identify::IdentificationResult fit);
+  // Snapshot + Fit + Accept in one call (the CLI).
+  const Estimate& IdentifyNow();
+
+  const std::optional<Estimate>& last_estimate() const { return last_; }
+  const std::vector<Estimate>& history() const { return history_; }
+  const identify::Identifier& identifier() const { return identifier_; }
+  const gate::Gate& gate() const { return gate_; }
+  const sync::SignalSync& sync() const { return sync_; }
+  const sync::RoleExtractor& extractor() const { return extractor_; }
+  const stats::Accumulator& accumulator() const { return accumulator_; }
+  const adequacy::Tracker& adequacy() const { return adequacy_; }
+  adequacy::Tracker& mutable_adequacy() { return adequacy_; }
+  int64_t data_time_ns() const { return data_time_ns_; }
+  uint64_t frames() const { return frames_; }
+  // Start of the next fit (full parameter vector, base then effects): the last valid fit,
+  // else the steady-state estimate, else nothing (the configured initial values).
+  std::optional<std::vector<double>> WarmStart() const;
+  // The base six of WarmStart() (e.g. for the live model monitor).
+  std::optional<model::Params<double>> WarmStartBase() const;
+
+  // --- For the daemon (additive) ---
+  // Called with every gated sample on the reading path (the monitor stream); must not throw.
+  using SampleObserver = std::function<void(const gate::GatedSample&)>;
+  void SetSampleObserver(SampleObserver observer) { observer_ = std::move(observer); }
+  // Learned state persisted across restarts and reloads.
+  stats::Accumulator& mutable_accumulator() { return accumulator_; }
+  double last_fit_gated_hours() const { return last_fit_gated_hours_; }
+  // Continues from a persisted state: the last estimate and the gated hours it was fitted at
+  // (the next identification then waits for new gated data, as if no restart had happened).
+  void RestoreLastEstimate(std::optional<Estimate> last, double last_fit_gated_hours) {
+    last_ = std::move(last);
+    last_fit_gated_hours_ = last_fit_gated_hours;
+  }
+
+ private:
+  void ConsumeSamples() noexcept;
+
+  const config::Config& config_;
+  sync::SignalSync sync_;
+  sync::RoleExtractor extractor_;
+  gate::Gate gate_;
+  stats::Accumulator accumulator_;
+  identify::Identifier identifier_;
+  adequacy::Tracker adequacy_;
+  std::vector<sync::Sample> samples_;
+  std::optional<Estimate> last_;
+  std::vector<Estimate> history_;
+  int64_t data_time_ns_ = 0;
+  int64_t last_fit_data_ns_ = 0;
+  double last_fit_gated_hours_ = -1;
+  uint64_t frames_ = 0;
+  SampleObserver observer_;
+};
+
+}  // namespace ndsid::pipeline

@@ -1,0 +1,258 @@
+// `ndsid diagnose`: which physical effect is missing, and the error ladder. Replays the logs,
+// fits the starting model, aligns the roles in time (step 0), ranks every candidate effect by a
+// score test (discover::Diagnose), then adds effects one at a time while the held-out RMSE falls
+// (discover::ClimbErrorLadder). --apply writes the ladder's effect list (model: effects: [...])
+// and the applied latencies (signals.<role>.latency_s) into the configuration.
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "command_registry.h"
+#include "config_edit.h"
+#include "model_report.h"
+#include "ndsid/common/atomic_file.h"
+#include "ndsid/discover/diagnosis.h"
+#include "ndsid/model/model_spec.h"
+
+namespace ndsid::desk {
+namespace {
+namespace fs = std::filesystem;
+
+struct DiagnoseArgs {
+  std::string config = std::string(NDSID_SOURCE_DIR) + "/config/example_vehicle.yaml";
+  std::vector<std::string> logs;
+  std::string effects;
+  std::string candidates;
+  int max_steps = 3;
+  double z_threshold = discover::DiagnosisOptions{}.z_threshold;
+  bool apply = false;
+  bool no_align = false;
+  std::string out;
+  std::string hold_out;
+};
+
+// What tells an effect apart from those it is confounded with (physics.md §4).
+std::string Separation(const std::string& effect) {
+  static const std::map<std::string, std::string> kHints = {
+      {"accel_bias", "constant, also at standstill (compare the standstill a_y, net of the road's cross-slope); with road_bank in the model a steering offset also leaves a constant (the bank observer keeps the yaw rate straight), so only transients and standstill data separate the two"},
+      {"crossfall", "even in a_y, ~ l/(l+EG v^2); yaw rate measures the road (v r - a_y) and standstill a_y shows the cross-slope"},
+      {"road_bank", "needs yaw rate: the bank is tracked so that the model's yaw rate follows the measured one; sensor effects on a_y (bias, roll, lever arm) stay in the residual"},
+      {"steer_offset", "even in a_y, grows with v^2/(l+EG v^2) on straights: the speed dependence separates it from bias (constant) and crossfall (~ l/L); with road_bank in the model it leaves a constant like a bias (standstill a_y separates them)"},
+      {"roll", "odd in a_y and lagging: the steady part trades with is and EG; yaw rate (kinematic l r/v) or the ~1.5 Hz roll mode separate it; roll and bank act alike on the accelerometer"},
+      {"superelevation", "odd in a_y: absorbed into is/EG from (d_sw, v, a_y) alone; yaw rate separates it"},
+      {"speed_scale", "in the Ackermann term, trades with l/is; only weakly identifiable"},
+      {"lever_arm", "~ yaw acceleration, zero in steady state: transients separate it"},
+      {"steer_delay", "~ steering rate at all speeds (a constant time shift): align the signals first (physics.md §5.0)"},
+      {"relaxation", "~ steering rate at low speed (lag sigma/v): the speed dependence separates it from a time skew"},
+      {"tyre_saturation", "only data with |a_y| > 3 m/s^2 separate it from EG"},
+      {"load_change", "per drive: within one drive a load is EG (and cv/m, ch/m) itself; only the drives' differences show it"},
+  };
+  const auto it = kHints.find(effect);
+  return it != kHints.end() ? it->second : "";
+}
+
+std::string Join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+std::string Fmt(const char* fmt, double a, double b = 0, double c = 0) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, fmt, a, b, c);
+  return buf;
+}
+
+// The added effect's parameters of a rung as "name = v ± se unit".
+std::string AddedParams(const discover::Rung& r) {
+  if (r.added.empty()) return "";
+  if (r.added == model::ModelSpec::kLoadChange) {  // per-drive ratios, not in the parameter vector
+    std::string s;
+    for (const auto& l : r.fit.drive_loads) {
+      s += (s.empty() ? "load ratio: drive " : "; drive ") + std::to_string(l.drive_id) +
+           (l.reference ? " 1 (reference)" : Fmt(" %.3f ± %.3f", l.ratio, l.se)) + (l.validation ? " (held out)" : "");
+    }
+    return s;
+  }
+  const model::ModelSpec spec = model::ModelSpec::FromNames({r.added});
+  std::string s;
+  for (int i = model::kNumParams; i < spec.num_params(); ++i) {
+    for (const auto& p : r.fit.effect_params) {
+      if (p.name == spec.param_name(i)) s += (s.empty() ? "" : "; ") + p.name + " = " + Fmt("%.4g ± %.2g ", p.value, p.se) + p.unit;
+    }
+  }
+  return s;
+}
+
+int Run(const DiagnoseArgs& a) {
+  const std::vector<std::string> start = a.effects.empty() ? config::LoadConfig(a.config).model_effects : ParseEffectList(a.effects);
+  const std::vector<std::string> candidates = ParseEffectList(a.candidates);
+  if (a.max_steps < 1) throw ConfigError("--max-steps must be >= 1");
+  if (!(a.z_threshold > 0)) throw ConfigError("--z-threshold must be > 0");
+  const std::vector<int64_t> hold_out = ParseDriveList(a.hold_out);
+  std::unique_ptr<ReplayedData> data = ReplayForModelWork(a.config, a.logs, start);
+  HoldOutDrives(*data, hold_out);
+  discover::LadderOptions opt;
+  opt.max_steps = a.max_steps;
+  opt.diagnosis.candidates = candidates;
+  opt.diagnosis.z_threshold = a.z_threshold;
+  opt.align = !a.no_align;
+  const discover::Ladder ladder = discover::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
+                                                             start, data->window.training, data->window.validation, opt);
+  std::vector<std::string> final_effects = start;
+  for (const auto& r : ladder.rungs)
+    if (!r.added.empty()) final_effects.push_back(r.added);
+
+  std::string md = "# ndsid diagnose: " + data->outcome.name + "\n\nStart: " + JoinEffects(start) + "\n\n";
+  nlohmann::json j;
+  j["data"] = data->outcome.name;
+  j["start_effects"] = start;
+  j["final_effects"] = final_effects;
+  j["stop_reason"] = ladder.stop_reason;
+  std::printf("diagnose %s: start %s, %zu training / %zu held-out segments\n", data->outcome.name.c_str(),
+              JoinEffects(start).c_str(), data->window.training.size(), data->window.validation.size());
+  // Step 0: the roles' latencies relative to a_y (already-configured latencies are in the data).
+  std::map<config::Role, double> new_latency;
+  if (!ladder.alignment.empty()) {
+    std::printf("\nstep 0, time alignment (latency relative to a_y; shifts applied when significant):\n");
+    md += "## Step 0: time alignment\n\nEach role's latency relative to the lateral acceleration, estimated by a "
+          "time-shift search; significant ones are applied before the ladder.\n\n| role | latency [ms] | σ [ms] | "
+          "applied | method | note |\n|---|---|---|---|---|---|\n";
+    for (const auto& l : ladder.alignment) {
+      const std::string key = config::RoleKey(l.role);
+      const double configured = data->config.role(l.role) ? data->config.role(l.role)->latency_s : 0.0;
+      if (l.apply) new_latency[l.role] = configured + l.latency_s;
+      const std::string value = l.se_s > 0 || l.latency_s != 0 ? Fmt("%+8.1f ± %-6.1f ms", 1e3 * l.latency_s, 1e3 * l.se_s)
+                                                                  : std::string("       —          ");
+      std::printf("  %-22s %s  %-7s %s%s\n", key.c_str(), value.c_str(), l.apply ? "applied" : "-", l.method.c_str(),
+                  l.note.empty() ? "" : (" (" + l.note + ")").c_str());
+      md += "| " + key + " | " + Fmt("%+.1f", 1e3 * l.latency_s) + " | " + (l.determined ? Fmt("%.1f", 1e3 * l.se_s) : "—") +
+            " | " + (l.apply ? "yes" : "no") + " | " + l.method + " | " + l.note + " |\n";
+      j["alignment"].push_back({{"role", key}, {"latency_s", l.latency_s}, {"se_s", l.se_s}, {"determined", l.determined},
+                                {"applied", l.apply}, {"configured_latency_s", configured}, {"method", l.method},
+                                {"note", l.note}});
+    }
+    if (ladder.aligned) {
+      const auto& b = ladder.before_alignment;
+      const auto& f = ladder.rungs.front().fit;
+      std::printf("  aligned: RMSE train %.4f -> %.4f, held-out %.4f -> %.4f, EG %.3f -> %.3f deg/g\n", b.rmse_train_mps2,
+                  f.rmse_train_mps2, b.rmse_validation_mps2, f.rmse_validation_mps2, b.eg_deg_per_g, f.eg_deg_per_g);
+      md += "\nAligned: RMSE train " + Fmt("%.4f → %.4f", b.rmse_train_mps2, f.rmse_train_mps2) + ", held-out " +
+            Fmt("%.4f → %.4f", b.rmse_validation_mps2, f.rmse_validation_mps2) + ", EG " +
+            Fmt("%.3f → %.3f deg/g", b.eg_deg_per_g, f.eg_deg_per_g) + ". The ladder below works on the aligned data.\n\n";
+    } else {
+      md += "\nNo latency applied: the ladder works on the data as recorded.\n\n";
+    }
+  }
+  if (!ladder.diagnoses.empty()) {
+    const discover::Diagnosis& d = ladder.diagnoses.front();
+    std::printf("\nfirst diagnosis of %s: RMSE %.4f m/s^2 over %zu residuals\n", d.model.c_str(), d.rmse, d.residuals);
+    std::printf("%-4s %-16s %-20s %14s %-6s %10s %8s %7s %8s %-4s %s\n", "rank", "effect", "parameter", "one-step", "unit",
+                "pred.RMSE", "dRSS %", "unique", "z_rob", "sig", "confounded with");
+    md += "## Candidate ranking (first diagnosis of " + d.model + ", RMSE " + Fmt("%.4f", d.rmse) +
+          " m/s²)\n\n| rank | effect | parameter | one-step | unit | predicted RMSE | ΔRSS share | uniqueness | robust z | significant | confounded with |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    const double rss = d.rmse * d.rmse * static_cast<double>(d.residuals);
+    int rank = 0;
+    for (const auto& c : d.ranked) {
+      ++rank;
+      const double share = rss > 0 ? 100.0 * c.drss / rss : 0.0;
+      const std::string conf = c.confounded_with.empty() ? "" : Join(c.confounded_with) + " — separated by: " + Separation(c.effect);
+      std::printf("%-4d %-16s %-20s %14.5g %-6s %10.4f %8.2f %7.3f %8.1f %-4s %s\n", rank, c.effect.c_str(), c.param.c_str(),
+                  c.one_step, c.unit.c_str(), c.rmse_predicted, share, c.uniqueness, c.z_robust, c.significant ? "yes" : "no",
+                  conf.c_str());
+      md += "| " + std::to_string(rank) + " | " + c.effect + " | " + c.param + " | " + Fmt("%.5g", c.one_step) + " | " +
+            c.unit + " | " + Fmt("%.4f", c.rmse_predicted) + " | " + Fmt("%.2f %%", share) + " | " +
+            Fmt("%.3f", c.uniqueness) + " | " + Fmt("%.1f", c.z_robust) + " | " + (c.significant ? "yes" : "no") + " | " +
+            conf + " |\n";
+      j["ranking"].push_back({{"effect", c.effect}, {"param", c.param}, {"unit", c.unit}, {"one_step", c.one_step},
+                              {"rmse_predicted_mps2", c.rmse_predicted}, {"drss_share", share / 100.0},
+                              {"uniqueness", c.uniqueness}, {"z_robust", c.z_robust}, {"significant", c.significant},
+                              {"confounded_with", c.confounded_with},
+                              {"separated_by", c.confounded_with.empty() ? "" : Separation(c.effect)}});
+    }
+    std::printf("\nresidual correlations with the signatures:\n");
+    md += "\n## Residual correlations with the signatures\n\n| signal | r | robust z | ΔRSS share |\n|---|---|---|---|\n";
+    for (const auto& s : d.signatures) {
+      const double share = rss > 0 ? 100.0 * s.drss / rss : 0.0;
+      std::printf("  %-48s r = %+.3f  z = %+6.1f  dRSS %5.2f %%\n", s.signal.c_str(), s.correlation, s.z_robust, share);
+      md += "| " + s.signal + " | " + Fmt("%+.3f", s.correlation) + " | " + Fmt("%+.1f", s.z_robust) + " | " + Fmt("%.2f %%", share) + " |\n";
+      j["signatures"].push_back({{"signal", s.signal}, {"correlation", s.correlation}, {"z_robust", s.z_robust}, {"drss_share", share / 100.0}});
+    }
+    j["unexplained"] = d.unexplained;
+    j["unexplained_text"] = d.unexplained_text;
+    if (d.unexplained) {
+      std::printf("unexplained: %s\n", d.unexplained_text.c_str());
+      md += "\n**Unexplained:** " + d.unexplained_text + "\n";
+    }
+  }
+  std::printf("\nerror ladder (stop: %s)\n%-4s %-42s %10s %10s %18s %-40s %8s\n", ladder.stop_reason.c_str(), "rung", "model",
+              "RMSE train", "held-out", "EG ± σ [deg/g]", "added parameter ± σ", "ΔBIC");
+  md += "\n## Error ladder\n\nStop: " + ladder.stop_reason + "\n\n| rung | model | RMSE train | RMSE held-out | EG ± σ [deg/g] | added parameter ± σ | ΔBIC |\n|---|---|---|---|---|---|---|\n";
+  for (size_t i = 0; i < ladder.rungs.size(); ++i) {
+    const auto& r = ladder.rungs[i];
+    const std::string added = AddedParams(r);
+    std::printf("%-4zu %-42s %10.4f %10.4f %9.3f ± %-6.3f %-40s %8.1f\n", i, r.model.c_str(), r.fit.rmse_train_mps2,
+                r.fit.rmse_validation_mps2, r.fit.eg_deg_per_g, r.fit.eg_se_deg_per_g, added.c_str(), r.delta_bic);
+    md += "| " + std::to_string(i) + " | " + r.model + " | " + Fmt("%.4f", r.fit.rmse_train_mps2) + " | " +
+          Fmt("%.4f", r.fit.rmse_validation_mps2) + " | " + Fmt("%.3f ± %.3f", r.fit.eg_deg_per_g, r.fit.eg_se_deg_per_g) +
+          " | " + added + " | " + (i ? Fmt("%.1f", r.delta_bic) : std::string("")) + " |\n";
+    j["ladder"].push_back({{"model", r.model}, {"added", r.added}, {"valid", r.fit.valid},
+                           {"rmse_train_mps2", r.fit.rmse_train_mps2}, {"rmse_validation_mps2", r.fit.rmse_validation_mps2},
+                           {"eg_deg_per_g", r.fit.eg_deg_per_g}, {"eg_se_deg_per_g", r.fit.eg_se_deg_per_g},
+                           {"added_parameters", added}, {"delta_bic", r.delta_bic}});
+  }
+  const std::string out = a.out.empty() ? (fs::path(data->config.report_dir) / "diagnose").string() : a.out;
+  fs::create_directories(out);
+  WriteFileAtomically((fs::path(out) / "diagnosis.json").string(), j.dump(2) + "\n");
+  std::string why_not;
+  if (RunPlotScript("ladder", out, &why_not)) {
+    md += "\n![error ladder](error_ladder.png)\n";
+  } else {
+    md += "\nNo plot: " + why_not + "\n";
+    std::printf("plot not written: %s\n", why_not.c_str());
+  }
+  md += "\nFinal effects: " + JoinEffects(final_effects) + "\n";
+  WriteFileAtomically((fs::path(out) / "diagnosis.md").string(), md);
+  std::printf("\nfinal effects: %s\nreport: %s\n", JoinEffects(final_effects).c_str(), (fs::path(out) / "diagnosis.md").c_str());
+
+  if (a.apply) {
+    const std::string text = ReadWholeFile(a.config);
+    std::string what, what_latency;
+    std::string edited = SetModelEffects(text, final_effects, a.config, &what);
+    if (!new_latency.empty()) edited = SetRoleLatencies(edited, new_latency, a.config, &what_latency);
+    if (edited == text) {
+      std::printf("--apply: %s unchanged, model.effects is already %s\n", a.config.c_str(), JoinEffects(final_effects).c_str());
+    } else {
+      WriteFileAtomically(a.config, edited);
+      std::printf("--apply: %s: %s%s\n", a.config.c_str(), what.c_str(),
+                  what_latency.empty() ? "" : ("; " + what_latency).c_str());
+    }
+  }
+  return 0;
+}
+
+void Register(CLI::App& parent, int& exit_code) {
+  auto args = std::make_shared<DiagnoseArgs>();
+  auto* cmd = parent.add_subcommand("diagnose", "Rank the missing physical effects and climb the error ladder on replayed logs");
+  cmd->add_option("--config", args->config, "Vehicle configuration (YAML)")->capture_default_str();
+  cmd->add_option("--log", args->logs, "Log files (default: source.logs of the configuration)");
+  cmd->add_option("--effects", args->effects, "Starting effects, comma-separated (default: model.effects; 'none' = base)");
+  cmd->add_option("--candidates", args->candidates, "Candidate effects, comma-separated (default: every library effect)");
+  cmd->add_option("--max-steps", args->max_steps, "Most effects the ladder adds")->capture_default_str();
+  cmd->add_option("--z-threshold", args->z_threshold,
+                  "Significance filter: |robust score z| a candidate needs before the ladder refits with it")
+      ->capture_default_str();
+  cmd->add_flag("--apply", args->apply,
+                "Write the ladder's final effect list, and the significant latencies of step 0, into the configuration file");
+  cmd->add_flag("--no-align", args->no_align, "Skip step 0 (time alignment of the roles relative to a_y)");
+  cmd->add_option("--hold-out", args->hold_out,
+                  "Drives to hold out, comma-separated drive numbers (default 'auto': the pipeline's split)");
+  cmd->add_option("--out", args->out, "Output folder (default: <report_dir>/diagnose)");
+  cmd->callback([args, &exit_code] { exit_code = Run(*args); });
+}
+
+}  // namespace
+}  // namespace ndsid::desk
+
+NDSID_REGISTER_COMMAND(diagnose, ndsid::desk::Register);

@@ -1,0 +1,111 @@
+// The engineer's model-improvement loop (`ndsid compare`, `ndsid diagnose`): logs replayed
+// into a window, models fitted and simulated over it sample by sample, the residual binned by
+// operating condition ("where it fails"), and the CSV / HTML / Markdown outputs.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ndsid/config/config.h"
+#include "ndsid/dbc/database.h"
+#include "ndsid/identify/identifier.h"
+#include "ndsid/pipeline/pipeline.h"
+#include "replay_runner.h"
+
+namespace ndsid::desk {
+
+// Logs replayed through the pipeline (one identification at the end), kept alive together:
+// the pipeline holds references to config and db.
+struct ReplayedData {
+  config::Config config;
+  dbc::Database db;
+  std::unique_ptr<pipeline::Pipeline> pipeline;
+  ReplayOutcome outcome;
+  pipeline::WindowSnapshot window;  // training / held-out drives exactly as the pipeline fits them
+  std::optional<double> truth_noise_mps2;  // noise.lat_accel_mps2 of a truth.yaml beside the first log
+  bool custom_split = false;  // training / held-out drives chosen on the command line
+};
+
+// "a,b" -> {a, b}; "none" or "" -> {} (base model). Throws ConfigError for an unknown name.
+std::vector<std::string> ParseEffectList(const std::string& text);
+std::string JoinEffects(const std::vector<std::string>& effects);  // "[a, b]"
+
+// Throws ConfigError for a missing log or an empty window. `pipeline_effects` is the model the
+// pipeline fits at the end (its fit is reused when a command wants the same model).
+std::unique_ptr<ReplayedData> ReplayForModelWork(const std::string& config_path, const std::vector<std::string>& logs,
+                                                 const std::vector<std::string>& pipeline_effects);
+
+// Re-splits the window: the drives listed are held out, the others train ("--hold-out 0,3").
+// Throws ConfigError for a drive not in the window or when no training drive is left.
+void HoldOutDrives(ReplayedData& data, const std::vector<int64_t>& drives);
+std::vector<int64_t> ParseDriveList(const std::string& text);  // "" or "auto" -> {}
+
+struct FittedModel {
+  std::string label;  // "model" / "baseline"
+  std::vector<std::string> effects;
+  identify::IdentificationResult fit;
+};
+FittedModel FitModel(const ReplayedData& data, const std::string& label, const std::vector<std::string>& effects);
+
+// One 50 Hz window sample (a chunk sample of the fit), with every model's output.
+struct SampleRow {
+  double t_s;
+  int64_t drive;
+  int segment, chunk, k;  // segment index in the window, chunk index, sample index in the chunk
+  bool scored;            // false inside the burn-in (not scored by the fit, not in statistics)
+  bool validation;
+  double steer_rad, steer_rate_radps, speed_mps, ax_mps2, ay_mps2, yaw_rate_radps;  // yaw NaN when absent
+  std::vector<double> ay_model, yaw_model;  // per model
+};
+
+enum class BinVerdict { kOk, kTooFew, kFailBias, kFailRmse };
+const char* VerdictText(BinVerdict v);
+
+struct BinStats {
+  size_t n = 0;
+  int clusters = 0;  // chunks contributing
+  double bias = 0, se = 0, rmse = 0;
+  BinVerdict verdict = BinVerdict::kTooFew;
+};
+
+struct Bin {
+  std::string group, label;
+  std::vector<BinStats> per_model;
+};
+
+struct FitFigures {  // per model and set
+  double rmse = -1, nrmse_fit_pct = 0, bias = 0;
+  size_t n = 0;
+};
+
+struct Comparison {
+  std::vector<FittedModel> models;  // [0] the model, [1] the baseline
+  std::vector<SampleRow> rows;
+  std::vector<double> white_noise;   // sqrt(var(diff e)/2) per model
+  double noise_floor = 0;            // used for the verdicts
+  std::string noise_floor_source;
+  std::vector<double> overall_rmse;  // per model, all scored samples
+  std::vector<FitFigures> train, validation;
+  std::vector<Bin> bins;
+};
+
+// Failing-bin rule (docs/model-workflow.md): at least kMinBinSamples scored samples; bias
+// fails when |bias| > kBiasZ * clustered SE (>= 3 chunks) and |bias| > noise_floor / 2; RMSE
+// fails when above kRmseFactor * the model's overall RMSE.
+inline constexpr size_t kMinBinSamples = 250;  // 5 s at 50 Hz
+inline constexpr double kBiasZ = 3.0;
+inline constexpr double kRmseFactor = 1.5;
+BinStats ComputeBin(const std::vector<double>& e, const std::vector<int>& cluster, double noise_floor,
+                    double overall_rmse);
+
+Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, std::optional<double> noise_floor);
+void PrintComparison(const Comparison& c);
+
+// Runs scripts/model_report_plots.py <mode> <dir> in the project venv; false with the reason when not.
+bool RunPlotScript(const std::string& mode, const std::string& dir, std::string* why_not);
+
+std::string HtmlEscape(const std::string& s);
+
+}  // namespace ndsid::desk

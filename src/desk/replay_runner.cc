@@ -1,0 +1,226 @@
+#include "replay_runner.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "ndsid/can/candump_reader.h"
+#include "fit_json.h"
+#include "ndsid/common/atomic_file.h"
+
+namespace ndsid::desk {
+namespace fs = std::filesystem;
+
+ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& config, const ReplayOptions& options) {
+  ReplayOutcome out;
+  const auto& logs = options.logs.empty() ? config.source.logs : options.logs;
+  std::vector<can::CanFrame> frames(256);
+  for (const std::string& path : logs) {
+    can::CandumpReader reader(path);
+    spdlog::info("replaying {}", reader.Describe());
+    for (;;) {
+      const can::ReadResult r = reader.Read(frames, 0);
+      pipeline.ProcessFrames(std::span<const can::CanFrame>(frames.data(), r.count), reader.bus_names());
+      if (options.identify_periodically && pipeline.IdentificationDue()) {
+        const pipeline::Estimate& e = pipeline.IdentifyNow();
+        spdlog::info("{:.2f} gated h: EG {:.3f} ± {:.3f} deg/g, {}", e.gated_hours, e.fit.eg_deg_per_g,
+                     e.fit.eg_se_deg_per_g, adequacy::StateName(e.adequacy.state));
+      }
+      if (r.state == can::SourceState::kEnd) break;
+    }
+    const auto& c = reader.counters();
+    out.source.frames += c.frames;
+    out.source.malformed += c.malformed;
+    out.source.error_frames += c.error_frames;
+    out.source.time_backwards += c.time_backwards;
+  }
+  pipeline.Finish();
+  if (!pipeline.accumulator().window().empty()) pipeline.IdentifyNow();
+  out.history = pipeline.history();
+  if (pipeline.last_estimate()) out.final_estimate = *pipeline.last_estimate();
+  return out;
+}
+
+namespace {
+
+nlohmann::json EstimateJson(const config::Config& config, const pipeline::Estimate& e) {
+  nlohmann::json j = FitToJson(e.fit);
+  j["steady_state"] = {{"valid", e.steady_state.valid}, {"reason", e.steady_state.reason},
+                       {"eg_rad_per_mps2", e.steady_state.eg_rad_per_mps2}, {"eg_se_rad_per_mps2", e.steady_state.eg_se},
+                       {"steer_ratio", e.steady_state.steer_ratio}, {"steer_offset_rad", e.steady_state.steer_offset_rad}};
+  j["adequacy"] = {{"state", adequacy::StateName(e.adequacy.state)}, {"rel_change", e.adequacy.rel_change},
+                   {"rel_se", e.adequacy.rel_se}, {"kl_growth", e.adequacy.kl_growth},
+                   {"hours_under_tolerance", e.adequacy.hours_under_tolerance},
+                   {"explanation", e.adequacy.explanation}};
+  j["gated_hours"] = e.gated_hours;
+  j["window_hours"] = e.window_hours;
+  j["vehicle"] = config.vehicle.name;
+  j["effects"] = config.model_effects;
+  return j;
+}
+
+void WriteText(const fs::path& p, const std::string& text) { WriteFileAtomically(p.string(), text); }
+
+}  // namespace
+
+std::string WriteReport(const std::string& dir, const config::Config& config, const pipeline::Pipeline& pipeline,
+                        const ReplayOutcome& outcome) {
+  fs::create_directories(dir);
+  const fs::path d(dir);
+  // EG history.
+  {
+    std::string csv = "gated_hours,eg_rad_per_mps2,eg_se_rad_per_mps2,eg_deg_per_g,eg_se_deg_per_g,rmse_train,rmse_validation,state,valid\n";
+    char line[256];
+    for (const pipeline::Estimate& e : outcome.history) {
+      std::snprintf(line, sizeof line, "%.4f,%.8g,%.8g,%.6g,%.6g,%.6g,%.6g,%s,%d\n", e.gated_hours, e.fit.eg_rad_per_mps2,
+                    e.fit.eg_se_rad_per_mps2, e.fit.eg_deg_per_g, e.fit.eg_se_deg_per_g, e.fit.rmse_train_mps2,
+                    e.fit.rmse_validation_mps2, adequacy::StateName(e.adequacy.state), e.fit.valid ? 1 : 0);
+      csv += line;
+    }
+    WriteText(d / "eg_history.csv", csv);
+  }
+  // Drives.
+  {
+    std::string csv = "drive,start_s,duration_s,distance_km,gated_s,used\n";
+    char line[256];
+    for (const auto& dr : pipeline.accumulator().drives()) {
+      std::snprintf(line, sizeof line, "%lld,%.3f,%.1f,%.3f,%.1f,%d\n", static_cast<long long>(dr.drive_id),
+                    dr.start_ns * 1e-9, (dr.end_ns - dr.start_ns) * 1e-9, dr.distance_km, dr.gated_s, dr.used ? 1 : 0);
+      csv += line;
+    }
+    WriteText(d / "drives.csv", csv);
+  }
+  // Gate counters.
+  {
+    std::string csv = "reason,samples\n";
+    const auto& gc = pipeline.gate().counters();
+    for (int i = 0; i < gate::kNumVerdicts; ++i) {
+      csv += std::string(gate::VerdictName(static_cast<gate::Verdict>(i))) + "," + std::to_string(gc.by_verdict[i]) + "\n";
+    }
+    const auto& ac = pipeline.accumulator().counters();
+    csv += "short_drive," + std::to_string(ac.short_drive_samples) + "\n";
+    csv += "short_segment," + std::to_string(ac.short_segment_samples) + "\n";
+    WriteText(d / "gate.csv", csv);
+  }
+  // Coverage (g-g and v-a_y histograms) for the plots.
+  {
+    const auto& cov = pipeline.accumulator().coverage();
+    std::string csv = "histogram,x_lo,y_lo,count\n";
+    char line[128];
+    for (const auto* h : {&cov.gg(), &cov.v_ay()}) {
+      const char* name = (h == &cov.gg()) ? "gg" : "v_ay";
+      for (int ix = 0; ix < h->nx; ++ix)
+        for (int iy = 0; iy < h->ny; ++iy) {
+          const double c = h->counts[static_cast<size_t>(ix * h->ny + iy)];
+          if (c <= 0) continue;
+          std::snprintf(line, sizeof line, "%s,%.3f,%.3f,%.0f\n", name, h->x_min + (h->x_max - h->x_min) * ix / h->nx,
+                        h->y_min + (h->y_max - h->y_min) * iy / h->ny, c);
+          csv += line;
+        }
+    }
+    WriteText(d / "coverage.csv", csv);
+  }
+  nlohmann::json j = outcome.final_estimate ? EstimateJson(config, *outcome.final_estimate) : nlohmann::json::object();
+  if (outcome.truth_eg) j["truth_eg_rad_per_mps2"] = *outcome.truth_eg;
+  j["frames"] = outcome.source.frames;
+  j["malformed_lines"] = outcome.source.malformed;
+  WriteText(d / "estimate.json", j.dump(2) + "\n");
+
+  // Markdown summary.
+  std::string md = "# ndsid replay: " + outcome.name + "\n\n";
+  char buf[512];
+  if (outcome.final_estimate && outcome.final_estimate->fit.valid) {
+    const auto& e = *outcome.final_estimate;
+    std::snprintf(buf, sizeof buf,
+                  "- EG = %.4f ± %.4f deg/g (%.6f ± %.6f rad/(m/s²)), %s\n- adequacy: **%s** — %s\n"
+                  "- RMSE train %.4f m/s², validation %.4f m/s²\n- gated hours %.3f (window %.3f)\n",
+                  e.fit.eg_deg_per_g, e.fit.eg_se_deg_per_g, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2,
+                  e.fit.se_method.c_str(), adequacy::StateName(e.adequacy.state), e.adequacy.explanation.c_str(),
+                  e.fit.rmse_train_mps2, e.fit.rmse_validation_mps2, e.gated_hours, e.window_hours);
+    md += buf;
+    if (outcome.truth_eg) {
+      std::snprintf(buf, sizeof buf, "- truth (simulator): EG = %.4f deg/g; error %.2f %%\n",
+                    model::EgToDegPerG(*outcome.truth_eg),
+                    100 * (e.fit.eg_rad_per_mps2 - *outcome.truth_eg) / *outcome.truth_eg);
+      md += buf;
+    }
+    md += "\n| parameter | value | σ | unit | note |\n|---|---|---|---|---|\n";
+    for (int i = 0; i < model::kNumParams; ++i) {
+      const auto& p = e.fit.params[i];
+      std::snprintf(buf, sizeof buf, "| %s | %.5g | %.3g | %s | %s |\n", model::kParamNames[i], p.value, p.se,
+                    model::kParamUnits[i], p.fixed ? "fixed" : (p.at_bound ? "on bound" : ""));
+      md += buf;
+    }
+    md += "\nIdentifiability:\n";
+    for (const auto& n : e.fit.identifiability.notes) md += "- " + n + "\n";
+    for (const auto& w : e.fit.identifiability.weak) md += "- " + w.description + "\n";
+  } else {
+    md += "No valid estimate: " +
+          (outcome.final_estimate ? outcome.final_estimate->fit.reason : std::string("no gated data")) + "\n";
+  }
+  md += "\nFiles: `estimate.json`, `eg_history.csv`, `drives.csv`, `gate.csv`, `coverage.csv`";
+  // Plots through the project's venv (optional: the numbers above do not depend on it).
+  const fs::path script = fs::path(NDSID_SOURCE_DIR) / "scripts" / "plot_report.py";
+  const fs::path python = fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3";
+  if (fs::exists(script) && fs::exists(python)) {
+    const std::string cmd = "'" + python.string() + "' '" + script.string() + "' '" + d.string() + "' >/dev/null 2>&1";
+    if (std::system(cmd.c_str()) == 0) md += ", `eg_history.png`, `coverage.png`";
+  }
+  md += "\n";
+  WriteText(d / "report.md", md);
+  return (d / "report.md").string();
+}
+
+void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeline, const ReplayOutcome& outcome,
+                  const std::string& report_path) {
+  const auto& acc = pipeline.accumulator();
+  int used = 0;
+  for (const auto& dr : acc.drives()) used += dr.used ? 1 : 0;
+  std::printf("%s: %zu drives (%d of >= %.1f km used), %.3f gated h, %llu frames, %llu malformed lines\n",
+              outcome.name.c_str(), acc.drives().size(), used, config.gate.min_drive_km, acc.gated_hours(),
+              static_cast<unsigned long long>(outcome.source.frames),
+              static_cast<unsigned long long>(outcome.source.malformed));
+  if (outcome.final_estimate && outcome.final_estimate->fit.valid) {
+    const auto& e = *outcome.final_estimate;
+    std::printf("  EG = %.4f ± %.4f deg/g   (%.6f ± %.6f rad/(m/s^2), 1 sigma)\n", e.fit.eg_deg_per_g,
+                e.fit.eg_se_deg_per_g, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2);
+    if (outcome.truth_eg) {
+      std::printf("  truth EG = %.4f deg/g (simulator); error %+.2f %% = %+.1f sigma\n",
+                  model::EgToDegPerG(*outcome.truth_eg),
+                  100 * (e.fit.eg_rad_per_mps2 - *outcome.truth_eg) / *outcome.truth_eg,
+                  (e.fit.eg_rad_per_mps2 - *outcome.truth_eg) / e.fit.eg_se_rad_per_mps2);
+    }
+    std::printf("  is = %.3f, lv = %.3f m, cv = %.0f N/rad, ch = %.0f N/rad, Jz = %.0f kg m^2, m = %.0f kg (%s)\n",
+                e.fit.params[model::kSteerRatio].value, e.fit.params[model::kCgToFront].value,
+                e.fit.params[model::kStiffFront].value, e.fit.params[model::kStiffRear].value,
+                e.fit.params[model::kYawInertia].value, e.fit.params[model::kMass].value,
+                e.fit.params[model::kMass].fixed ? "fixed" : "identified");
+    std::printf("  RMSE train %.4f m/s^2, validation %s\n", e.fit.rmse_train_mps2,
+                e.fit.rmse_validation_mps2 >= 0 ? (std::to_string(e.fit.rmse_validation_mps2).substr(0, 6) + " m/s^2").c_str()
+                                                 : "n/a (no held-out drive)");
+    std::printf("  steady-state check: EG = %s\n",
+                e.steady_state.valid ? (std::to_string(model::EgToDegPerG(e.steady_state.eg_rad_per_mps2)).substr(0, 6) + " deg/g").c_str()
+                                     : e.steady_state.reason.c_str());
+    std::printf("  adequacy: %s — %s\n", adequacy::StateName(e.adequacy.state), e.adequacy.explanation.c_str());
+  } else {
+    std::printf("  no valid estimate: %s\n",
+                outcome.final_estimate ? outcome.final_estimate->fit.reason.c_str() : "no gated data in the window");
+  }
+  const auto& gc = pipeline.gate().counters();
+  std::printf("  gate:");
+  for (int i = 0; i < gate::kNumVerdicts; ++i) {
+    if (gc.by_verdict[i]) std::printf(" %s=%llu", gate::VerdictName(static_cast<gate::Verdict>(i)),
+                                      static_cast<unsigned long long>(gc.by_verdict[i]));
+  }
+  std::printf(" short_drive=%llu\n", static_cast<unsigned long long>(acc.counters().short_drive_samples));
+  std::printf("  standstill a_y (road cross-slope): %.3f m/s^2 over %llu samples\n", pipeline.gate().standstill().mean_mps2(),
+              static_cast<unsigned long long>(pipeline.gate().standstill().samples));
+  std::printf("  report: %s\n", report_path.c_str());
+}
+
+}  // namespace ndsid::desk

@@ -1,0 +1,205 @@
+#include "ndsid/discover/alignment.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "ndsid/identify/chunks.h"
+#include "ndsid/identify/model_output.h"
+#include "ndsid/model/model_spec.h"
+
+namespace ndsid::discover {
+using namespace identify;  // the estimator this stage builds on
+namespace {
+
+using config::Role;
+
+float stats::SegmentSample::*Field(Role role) {
+  switch (role) {
+    case Role::kSteeringWheelAngle: return &stats::SegmentSample::steer_rad;
+    case Role::kSpeed: return &stats::SegmentSample::speed_mps;
+    case Role::kYawRate: return &stats::SegmentSample::yaw_rate_radps;
+    case Role::kLongitudinalAcceleration: return &stats::SegmentSample::long_accel_mps2;
+    default: return nullptr;
+  }
+}
+
+// x(k + shift) by linear interpolation, held at the ends.
+double ReadShifted(const std::vector<stats::SegmentSample>& s, float stats::SegmentSample::*field, double index) {
+  const double last = static_cast<double>(s.size() - 1);
+  if (index <= 0) return s.front().*field;
+  if (index >= last) return s.back().*field;
+  const size_t i = static_cast<size_t>(index);
+  const double w = index - static_cast<double>(i);
+  return (1 - w) * (s[i].*field) + w * (s[i + 1].*field);
+}
+
+std::vector<stats::Segment> ShiftOne(const SegmentList& segments, Role role, double shift_s) {
+  RoleLatency l;
+  l.role = role;
+  l.latency_s = shift_s;
+  l.apply = true;
+  return AlignSegments(segments, {l});
+}
+
+struct Profile {
+  std::vector<double> shift, rss;
+};
+
+// Minimum of a profile refined by a parabola through its neighbours; the curvature gives the
+// standard error with the residual variance sigma2_tau (sigma^2 times the autocorrelation time).
+void Refine(const Profile& p, double sigma2_tau, RoleLatency& out) {
+  const size_t n = p.rss.size();
+  const size_t i = static_cast<size_t>(std::min_element(p.rss.begin(), p.rss.end()) - p.rss.begin());
+  out.latency_s = p.shift[i];
+  if (i == 0 || i + 1 >= n) {
+    out.note = "the minimum lies at the edge of the searched range";
+    return;
+  }
+  const double h = p.shift[i + 1] - p.shift[i];
+  const double rm = p.rss[i - 1], r0 = p.rss[i], rp = p.rss[i + 1];
+  const double curv = (rp - 2 * r0 + rm) / (2 * h * h);  // RSS ~ r0 + curv (shift - shift*)^2
+  if (!(curv > 0)) {
+    out.note = "the profile is flat: the data do not determine it";
+    return;
+  }
+  out.latency_s = p.shift[i] - 0.5 * h * (rp - rm) / (rp - 2 * r0 + rm);
+  out.se_s = std::sqrt(sigma2_tau / curv);
+  out.determined = std::isfinite(out.se_s);
+}
+
+std::vector<std::vector<double>> ChunkResiduals(const Identifier& id, const std::vector<double>& params,
+                                                const SegmentList& segments) {
+  std::vector<std::vector<double>> res;
+  for (const ChunkOutput& c : SimulateChunks(id, params, segments)) {
+    std::vector<double> e;
+    for (size_t k = c.burn_in; k < c.n; ++k) e.push_back(c.segment->samples[c.first + k].lat_accel_mps2 - c.a_y_model_mps2[k]);
+    res.push_back(std::move(e));
+  }
+  return res;
+}
+
+std::vector<double> Grid(const AlignmentOptions& o) {
+  std::vector<double> g;
+  const int n = static_cast<int>(std::lround((o.max_s - o.min_s) / o.step_s));
+  for (int i = 0; i <= n; ++i) g.push_back(o.min_s + i * o.step_s);
+  return g;
+}
+
+// Profile of the model's RSS over shifts of one input role, parameters held.
+RoleLatency InputProfile(const Identifier& id, const std::vector<double>& params, const SegmentList& training, Role role,
+                         const AlignmentOptions& o) {
+  RoleLatency out;
+  out.role = role;
+  out.method = "RSS profile over shifts, parameters held";
+  Profile p;
+  for (double s : Grid(o)) {
+    const std::vector<stats::Segment> shifted = ShiftOne(training, role, s);
+    size_t n = 0;
+    const double rmse = id.Rmse(params, Pointers(shifted), &n);
+    p.shift.push_back(s);
+    p.rss.push_back(rmse * rmse * static_cast<double>(n));
+  }
+  Refine(p, ResidualNoiseLevel(ChunkResiduals(id, params, training)), out);
+  return out;
+}
+
+// Steering: the profile finds the basin, a joint refit of model and shift (steer_delay) the
+// estimate and its standard error with every parameter free.
+// `refitted`: the model's parameters from the joint refit (for data aligned by the result).
+RoleLatency SteeringLatency(const Identifier& id, const std::vector<double>& params, const SegmentList& training,
+                            const AlignmentOptions& o, std::vector<double>& refitted) {
+  RoleLatency out = InputProfile(id, params, training, Role::kSteeringWheelAngle, o);
+  for (const auto& e : id.spec().effects()) {
+    if (e->info().name == "steer_delay") {
+      out.determined = false;
+      out.note = "steer_delay is in the model";
+      return out;
+    }
+  }
+  if (!out.note.empty() && out.note.find("edge") == std::string::npos) return out;
+  std::vector<std::string> names;
+  for (const auto& e : id.spec().effects()) names.push_back(e->info().name);
+  names.push_back("steer_delay");
+  const Identifier joint(id.config(), id.wheelbase_m(), model::ModelSpec::FromNames(names));
+  std::vector<double> warm = Extend(id.spec(), params, joint.spec());
+  for (int i = model::kNumParams; i < joint.spec().num_params(); ++i) {
+    if (joint.spec().param_name(i) == "steer_delay_s") warm[static_cast<size_t>(i)] = std::clamp(out.latency_s, o.min_s, o.max_s);
+  }
+  const IdentificationResult fit = joint.Identify(training, {}, std::optional<std::vector<double>>(warm));
+  out.method = "RSS profile over shifts, then a joint refit of model and shift";
+  if (!fit.valid || fit.effect_params.empty()) {
+    out.determined = false;
+    out.note = "the joint refit failed: " + fit.reason;
+    return out;
+  }
+  const std::string name = "steer_delay_s";
+  const auto it = std::find_if(fit.effect_params.begin(), fit.effect_params.end(), [&](const auto& p) { return p.name == name; });
+  if (it == fit.effect_params.end()) {
+    out.determined = false;
+    out.note = "the joint refit has no " + name;
+    return out;
+  }
+  const ParameterEstimate& d = *it;
+  refitted = Extend(joint.spec(), fit.AllValues(), id.spec());
+  out.latency_s = d.value;
+  out.se_s = d.se;
+  out.determined = !d.at_bound && d.se > 0 && std::isfinite(d.se);
+  out.note = d.at_bound ? "the shift ends on the edge of the searched range" : "";
+  return out;
+}
+
+}  // namespace
+
+std::vector<stats::Segment> AlignSegments(const SegmentList& segments, const std::vector<RoleLatency>& latencies) {
+  std::vector<stats::Segment> out;
+  out.reserve(segments.size());
+  for (const stats::Segment* seg : segments) {
+    stats::Segment copy = *seg;
+    for (const RoleLatency& l : latencies) {
+      const auto field = Field(l.role);
+      if (!l.apply || field == nullptr || seg->samples.size() < 2) continue;
+      const double shift = l.latency_s / seg->dt_s;
+      for (size_t k = 0; k < seg->samples.size(); ++k) {
+        copy.samples[k].*field = static_cast<float>(ReadShifted(seg->samples, field, static_cast<double>(k) + shift));
+      }
+    }
+    out.push_back(std::move(copy));
+  }
+  return out;
+}
+
+std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& identifier, const std::vector<double>& params,
+                                               const SegmentList& training, const AlignmentOptions& options) {
+  std::vector<RoleLatency> out;
+  // The speed is searched on data aligned for the steering (with the joint fit's parameters):
+  // a steering skew left in would pull the speed's shift.
+  auto decide = [&](RoleLatency& l) {
+    l.apply = l.determined && std::abs(l.latency_s) > options.z_apply * l.se_s;
+    if (l.determined && !l.apply) l.note = "not significant";
+  };
+  std::vector<double> refitted;
+  out.push_back(SteeringLatency(identifier, params, training, options, refitted));
+  RoleLatency& steer = out.back();
+  decide(steer);
+  if (steer.apply && refitted.size() == params.size()) {
+    const std::vector<stats::Segment> aligned = AlignSegments(training, {steer});
+    out.push_back(InputProfile(identifier, refitted, Pointers(aligned), Role::kSpeed, options));
+  } else {
+    out.push_back(InputProfile(identifier, params, training, Role::kSpeed, options));
+  }
+  RoleLatency yaw;
+  yaw.role = Role::kYawRate;
+  yaw.method = "not estimated";
+  yaw.note = "the yaw rate drives only the 1 s bank observer; its kinematic shift (a_y = v (r + beta')) is confounded with the side-slip rate";
+  out.push_back(yaw);
+  decide(out[1]);
+  for (const RoleLatency& l : out) {
+    spdlog::info("alignment: {} latency {:.1f} ± {:.1f} ms ({}){}", config::RoleKey(l.role), 1e3 * l.latency_s,
+                 1e3 * l.se_s, l.method, l.note.empty() ? "" : ": " + l.note);
+  }
+  return out;
+}
+
+}  // namespace ndsid::discover

@@ -1,0 +1,391 @@
+#include "ndsid/discover/diagnosis.h"
+
+#include <spdlog/spdlog.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "ndsid/identify/chunks.h"
+
+namespace ndsid::discover {
+using namespace identify;  // the estimator this stage builds on
+namespace {
+
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+struct Signature {
+  const char* name;
+  double (*value)(const stats::SegmentSample* s, size_t k, size_t n, double dt, double w);
+};
+
+double SteerRate(const stats::SegmentSample* s, size_t k, size_t n, double dt) {
+  const size_t a = k > 0 ? k - 1 : k, b = k + 1 < n ? k + 1 : k;
+  return b > a ? (s[b].steer_rad - s[a].steer_rad) / ((b - a) * dt) : 0.0;
+}
+
+const Signature kSignatures[] = {
+    {"constant (bias)", [](const stats::SegmentSample*, size_t, size_t, double, double) { return 1.0; }},
+    {"a_y (scale, roll)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) { return double(s[k].lat_accel_mps2); }},
+    {"a_y^3 (tyre nonlinearity)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) {
+       const double a = s[k].lat_accel_mps2;
+       return a * a * a;
+     }},
+    {"w(v) = v^2/(l+EG v^2) (straight-line offset)", [](const stats::SegmentSample*, size_t, size_t, double, double w) { return w; }},
+    {"w(v)*a_y (EG error)", [](const stats::SegmentSample* s, size_t k, size_t, double, double w) { return w * s[k].lat_accel_mps2; }},
+    {"steering rate (lag)", [](const stats::SegmentSample* s, size_t k, size_t n, double dt, double) { return SteerRate(s, k, n, dt); }},
+    {"steering rate / v (low-speed lag)", [](const stats::SegmentSample* s, size_t k, size_t n, double dt, double) {
+       return SteerRate(s, k, n, dt) / std::max(1.0, double(s[k].speed_mps));
+     }},
+    {"a_x (longitudinal)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) { return double(s[k].long_accel_mps2); }},
+    {"a_x*a_y (load transfer)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) {
+       return double(s[k].long_accel_mps2) * s[k].lat_accel_mps2;
+     }},
+};
+constexpr int kNumSignatures = sizeof(kSignatures) / sizeof(kSignatures[0]);
+
+// The load_change candidate (mass / load per drive, physics.md §4): one sensitivity column per
+// drive, g_d = d(e)/d(rho_d) = -(cv A_cv + ch A_ch) on that drive's chunks (a load ratio scales
+// the tyre forces by 1/rho). Projected against the fitted parameters, which absorb the common
+// mode (all drives alike), the joint score gives the drop in RSS of fitting a ratio per drive;
+// significance from chi^2 = dRSS / (sigma^2 tau) on rank - 1 degrees of freedom.
+struct LoadScore {
+  bool active = false;
+  std::map<int64_t, int> index;          // drive id -> column
+  std::vector<Eigen::VectorXd> a_g;      // per drive: A' g_d (all columns of big)
+  std::vector<double> g_g, g_e;          // per drive: g_d' g_d, g_d' e
+
+  void Add(int64_t drive, const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>& A,
+           const Eigen::Map<const Eigen::VectorXd>& e, const std::vector<double>& x) {
+    const auto [it, added] = index.emplace(drive, static_cast<int>(index.size()));
+    if (added) {
+      a_g.push_back(Eigen::VectorXd::Zero(A.cols()));
+      g_g.push_back(0);
+      g_e.push_back(0);
+    }
+    const int d = it->second;
+    const Eigen::VectorXd g = -(x[model::kStiffFront] * A.col(model::kStiffFront) + x[model::kStiffRear] * A.col(model::kStiffRear));
+    a_g[static_cast<size_t>(d)] += A.transpose() * g;
+    g_g[static_cast<size_t>(d)] += g.squaredNorm();
+    g_e[static_cast<size_t>(d)] += g.dot(e);
+  }
+
+  CandidateScore Score(const Eigen::MatrixXd& JtJ, const Eigen::VectorXd& Jte, const std::vector<int>& fitted, double rss,
+                       size_t n, const std::vector<std::vector<double>>& residuals, double z_threshold) const {
+    const int nd = static_cast<int>(index.size()), nf = static_cast<int>(fitted.size());
+    Eigen::MatrixXd JtG(nf, nd), GtG = Eigen::MatrixXd::Zero(nd, nd);
+    Eigen::VectorXd Gte(nd);
+    for (int d = 0; d < nd; ++d) {
+      for (int f = 0; f < nf; ++f) JtG(f, d) = a_g[static_cast<size_t>(d)][fitted[f]];
+      GtG(d, d) = g_g[static_cast<size_t>(d)];
+      Gte[d] = g_e[static_cast<size_t>(d)];
+    }
+    const Eigen::MatrixXd B = JtJ.completeOrthogonalDecomposition().solve(JtG);
+    const Eigen::MatrixXd P = GtG - JtG.transpose() * B;  // projected G'G
+    const Eigen::VectorXd q = Gte - B.transpose() * Jte;  // projected G'e
+    const auto cod = P.completeOrthogonalDecomposition();
+    const Eigen::VectorXd eta = cod.solve(q);
+    CandidateScore s;
+    s.effect = model::ModelSpec::kLoadChange;
+    s.param = "load ratio spread (sd over drives)";
+    s.unit = "-";
+    s.drss = std::max(0.0, q.dot(eta));
+    s.rmse_predicted = std::sqrt(std::max(0.0, rss - s.drss) / static_cast<double>(n));
+    const double mean = -eta.mean();
+    double var = 0;
+    for (int d = 0; d < nd; ++d) var += (-eta[d] - mean) * (-eta[d] - mean);
+    s.one_step = nd > 1 ? std::sqrt(var / (nd - 1)) : 0.0;
+    s.uniqueness = GtG.trace() > 0 ? P.trace() / GtG.trace() : 0.0;
+    const double sigma2_tau = ResidualNoiseLevel(residuals);
+    const double dof = std::max<double>(1.0, static_cast<double>(cod.rank()));
+    const double chi2 = sigma2_tau > 0 ? s.drss / sigma2_tau : 0.0;
+    s.z_robust = (chi2 - dof) / std::sqrt(2 * dof);
+    s.significant = s.z_robust > z_threshold;
+    return s;
+  }
+};
+
+}  // namespace
+
+Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& params, const SegmentList& segments,
+                   const DiagnosisOptions& options) {
+  Diagnosis d;
+  const model::ModelSpec& spec = identifier.spec();
+  d.model = spec.Describe();
+  std::vector<std::string> candidates = options.candidates;
+  const auto present = spec.effect_names();
+  if (candidates.empty()) candidates = model::BuiltinEffectNames();
+  candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
+                                  [&](const std::string& c) { return std::find(present.begin(), present.end(), c) != present.end(); }),
+                   candidates.end());
+  // One model holding every candidate at its neutral value: its Jacobian there gives the
+  // fitted parameters' columns J and every candidate's sensitivity column at once.
+  std::vector<std::string> all = present;
+  all.insert(all.end(), candidates.begin(), candidates.end());
+  const model::ModelSpec big = model::ModelSpec::FromNames(all);
+  const std::vector<double> x = Extend(spec, params, big);
+  const int np = big.num_params();
+  std::vector<int> fitted, cand;  // columns of big: fitted free parameters, candidate parameters
+  for (int i = 0; i < np; ++i) {
+    const bool is_base = i < model::kNumParams;
+    bool in_current = is_base;
+    for (int j = model::kNumParams; j < spec.num_params() && !is_base; ++j) in_current |= spec.param_name(j) == big.param_name(i);
+    if (in_current) {
+      if (!(is_base && identifier.config().params[i].fixed)) fitted.push_back(i);
+    } else {
+      cand.push_back(i);
+    }
+  }
+
+  const auto& cfg = identifier.config();
+  const auto chunks = MakeChunks(segments, cfg.chunk_s, cfg.burn_in_s, identifier.drive_loads());
+  LoadScore load;
+  {
+    std::set<int64_t> drives;
+    for (const Chunk& c : chunks) drives.insert(c.drive_id);
+    const bool asked = options.candidates.empty() ||
+                       std::find(options.candidates.begin(), options.candidates.end(), model::ModelSpec::kLoadChange) !=
+                           options.candidates.end();
+    load.active = asked && !spec.per_drive_load() && drives.size() >= 2;
+  }
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(np, np);  // A'A
+  Eigen::VectorXd Ae = Eigen::VectorXd::Zero(np);     // A'e
+  std::vector<Eigen::VectorXd> chunk_Ae;
+  std::vector<std::vector<double>> chunk_residuals;
+  double rss = 0;
+  size_t n = 0;
+  // Signatures: X'X-style sums for residual correlations, clustered by chunk.
+  const double eg = model::SelfSteerGradient(model::Params<double>::FromArray(params.data()), identifier.wheelbase_m());
+  Eigen::MatrixXd sig_sums = Eigen::MatrixXd::Zero(kNumSignatures, 4);  // sum x, sum x^2, sum x e, (unused)
+  double sum_e = 0;
+  std::vector<Eigen::VectorXd> chunk_sig_xe;
+  std::vector<double> chunk_e_sum, chunk_n;
+  std::vector<std::vector<double>> sig_values(kNumSignatures);
+  for (const Chunk& c : chunks) {
+    const size_t burn = BurnInSamples(c, cfg.burn_in_s);
+    std::vector<double> e, jac;
+    EvaluateChunk(c, burn, identifier.wheelbase_m(), big, x, e, jac);
+    const int m = static_cast<int>(e.size());
+    Eigen::Map<const RowMajor> A(jac.data(), m, np);
+    Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
+    M += A.transpose() * A;
+    if (load.active) load.Add(c.drive_id, A, ev, x);
+    const Eigen::VectorXd ae = A.transpose() * ev;
+    Ae += ae;
+    chunk_Ae.push_back(ae);
+    rss += ev.squaredNorm();
+    n += static_cast<size_t>(m);
+    chunk_residuals.push_back(e);
+    Eigen::VectorXd xe = Eigen::VectorXd::Zero(kNumSignatures);
+    double esum = 0;
+    for (int k = 0; k < m; ++k) {
+      const size_t kk = burn + static_cast<size_t>(k);
+      const double v = c.samples[kk].speed_mps;
+      const double w = v * v / (identifier.wheelbase_m() + eg * v * v);
+      esum += e[static_cast<size_t>(k)];
+      for (int s = 0; s < kNumSignatures; ++s) {
+        const double val = kSignatures[s].value(c.samples, kk, c.n, c.dt_s, w);
+        sig_sums(s, 0) += val;
+        sig_sums(s, 1) += val * val;
+        xe[s] += val * e[static_cast<size_t>(k)];
+      }
+    }
+    sum_e += esum;
+    chunk_sig_xe.push_back(xe);
+    chunk_e_sum.push_back(esum);
+    chunk_n.push_back(m);
+  }
+  d.residuals = n;
+  if (n == 0) return d;
+  d.rmse = std::sqrt(rss / static_cast<double>(n));
+
+  // Projection against the fitted parameters: b = (J'J)^-1 J'g for every candidate column.
+  const int nf = static_cast<int>(fitted.size()), nc = static_cast<int>(cand.size());
+  Eigen::MatrixXd JtJ(nf, nf), JtG(nf, nc), GtG(nc, nc);
+  Eigen::VectorXd Jte(nf), Gte(nc);
+  for (int a = 0; a < nf; ++a) {
+    Jte[a] = Ae[fitted[a]];
+    for (int b = 0; b < nf; ++b) JtJ(a, b) = M(fitted[a], fitted[b]);
+    for (int b = 0; b < nc; ++b) JtG(a, b) = M(fitted[a], cand[b]);
+  }
+  for (int a = 0; a < nc; ++a) {
+    Gte[a] = Ae[cand[a]];
+    for (int b = 0; b < nc; ++b) GtG(a, b) = M(cand[a], cand[b]);
+  }
+  const Eigen::MatrixXd B = JtJ.completeOrthogonalDecomposition().solve(JtG);  // nf x nc
+  const Eigen::MatrixXd Gt_Gt = GtG - JtG.transpose() * B;                      // projected G'G
+  const Eigen::VectorXd Gt_e = Gte - B.transpose() * Jte;                       // projected G'e
+  for (int a = 0; a < nc; ++a) {
+    CandidateScore s;
+    const int col = cand[a];
+    const model::EffectParam* ep = big.effect_param(col);
+    for (const auto& eff : big.effects()) {
+      for (const auto& p : eff->info().params) {
+        if (p.name == ep->name) s.effect = eff->info().name;
+      }
+    }
+    s.param = ep->name;
+    s.unit = ep->unit;
+    const double ztz = Gt_Gt(a, a), zte = Gt_e[a];
+    s.uniqueness = GtG(a, a) > 0 ? ztz / GtG(a, a) : 0.0;
+    if (ztz > 1e-12 * std::max(1.0, GtG(a, a))) {
+      s.drss = zte * zte / ztz;
+      s.one_step = ep->neutral - zte / ztz;
+    }
+    s.rmse_predicted = std::sqrt(std::max(0.0, rss - s.drss) / static_cast<double>(n));
+    double var = 0;
+    for (const auto& ae : chunk_Ae) {
+      double sc = ae[col];
+      for (int f = 0; f < nf; ++f) sc -= B(f, a) * ae[fitted[f]];
+      var += sc * sc;
+    }
+    s.z_robust = var > 0 ? zte / std::sqrt(var) : 0.0;
+    s.significant = std::abs(s.z_robust) > options.z_threshold;
+    // What it trades with: fitted parameters carrying most of its sensitivity, and candidates
+    // whose projected sensitivities are nearly parallel to its own.
+    if (s.uniqueness < 0.2) {
+      for (int f = 0; f < nf; ++f) {
+        const double share = std::abs(B(f, a)) * std::sqrt(JtJ(f, f) / std::max(GtG(a, a), 1e-300));
+        if (share > 0.3) s.confounded_with.push_back(big.param_name(fitted[f]));
+      }
+    }
+    for (int b = 0; b < nc; ++b) {
+      if (b == a || Gt_Gt(a, a) <= 0 || Gt_Gt(b, b) <= 0) continue;
+      const double corr = Gt_Gt(a, b) / std::sqrt(Gt_Gt(a, a) * Gt_Gt(b, b));
+      if (std::abs(corr) > 0.9) s.confounded_with.push_back(big.param_name(cand[b]));
+    }
+    d.ranked.push_back(s);
+  }
+  if (load.active) {
+    d.ranked.push_back(load.Score(JtJ, Jte, fitted, rss, n, chunk_residuals, options.z_threshold));
+  }
+  std::sort(d.ranked.begin(), d.ranked.end(), [](const auto& a, const auto& b) { return a.drss > b.drss; });
+
+  // Residual correlations with the signature signals (centred), clustered by chunk.
+  const double mean_e = sum_e / static_cast<double>(n);
+  for (int s = 0; s < kNumSignatures; ++s) {
+    SignatureCorrelation sc;
+    sc.signal = kSignatures[s].name;
+    const double mean_x = sig_sums(s, 0) / static_cast<double>(n);
+    const double sxx = sig_sums(s, 1) - n * mean_x * mean_x;
+    double sxe = 0, var = 0;
+    for (size_t c = 0; c < chunk_sig_xe.size(); ++c) {
+      // sum over chunk of (x - mean_x)(e - mean_e) = xe - mean_x*esum - mean_e*sum_x + n mean_x mean_e; use
+      // the uncentred-x form with centred e (exact when summed over all chunks).
+      const double part = chunk_sig_xe[c][s] - mean_e * 0.0 - mean_x * chunk_e_sum[c];
+      sxe += part;
+      var += part * part;
+    }
+    if (sxx > 0 && rss > 0) {
+      const double see = rss - n * mean_e * mean_e;
+      sc.correlation = sxe / std::sqrt(sxx * std::max(see, 1e-300));
+      sc.drss = sxe * sxe / sxx;
+      sc.z_robust = var > 0 ? sxe / std::sqrt(var) : 0.0;
+    }
+    d.signatures.push_back(sc);
+  }
+  std::sort(d.signatures.begin(), d.signatures.end(), [](const auto& a, const auto& b) { return a.drss > b.drss; });
+
+  // Unexplained: a significant signature explains clearly more than the best significant candidate.
+  double best_candidate = 0;
+  for (const auto& c : d.ranked) {
+    if (c.significant) best_candidate = std::max(best_candidate, c.drss);
+  }
+  if (!d.signatures.empty()) {
+    const auto& top = d.signatures.front();
+    if (std::abs(top.z_robust) > options.z_threshold && top.drss > 2.0 * best_candidate && top.drss > 0.01 * rss) {
+      d.unexplained = true;
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "residual structure no library effect explains: it correlates with %s (r = %.2f, z = %.1f, "
+                    "explains %.1f %% of the RSS)",
+                    top.signal.c_str(), top.correlation, top.z_robust, 100 * top.drss / rss);
+      d.unexplained_text = buf;
+    }
+  }
+  return d;
+}
+
+Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheelbase_m,
+                        const std::vector<std::string>& start_effects, const SegmentList& training_in,
+                        const SegmentList& validation_in, const LadderOptions& options) {
+  Ladder ladder;
+  std::vector<std::string> effects = start_effects;
+  Identifier current(config, wheelbase_m, model::ModelSpec::FromNames(effects));
+  IdentificationResult fit = current.Identify(training_in, validation_in, std::optional<std::vector<double>>{});
+  current.set_drive_loads(fit.drive_loads);
+  if (!fit.valid) {
+    ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});
+    ladder.stop_reason = "the starting model could not be fitted: " + fit.reason;
+    return ladder;
+  }
+  // Step 0: time alignment. The ladder then works on shifted copies of the data.
+  std::vector<stats::Segment> aligned_training, aligned_validation;
+  SegmentList training = training_in, validation = validation_in;
+  if (options.align) {
+    ladder.before_alignment = fit;
+    ladder.alignment = EstimateRoleLatencies(current, fit.AllValues(), training_in, options.alignment);
+    for (const RoleLatency& l : ladder.alignment) ladder.aligned = ladder.aligned || l.apply;
+    if (ladder.aligned) {
+      aligned_training = AlignSegments(training_in, ladder.alignment);
+      aligned_validation = AlignSegments(validation_in, ladder.alignment);
+      training = Pointers(aligned_training);
+      validation = Pointers(aligned_validation);
+      const IdentificationResult refit = current.Identify(training, validation, std::optional<std::vector<double>>(fit.AllValues()));
+      if (refit.valid) {
+        fit = refit;
+        current.set_drive_loads(fit.drive_loads);
+      } else {  // keep the data as recorded
+        ladder.aligned = false;
+        for (RoleLatency& l : ladder.alignment) l.apply = false;
+        training = training_in;
+        validation = validation_in;
+      }
+    }
+  }
+  ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});
+  auto held_out = [](const IdentificationResult& r) { return r.rmse_validation_mps2 >= 0 ? r.rmse_validation_mps2 : r.rmse_train_mps2; };
+  for (int step = 0; step < options.max_steps; ++step) {
+    Diagnosis diag = Diagnose(current, fit.AllValues(), training, options.diagnosis);
+    ladder.diagnoses.push_back(diag);
+    bool improved = false;
+    int tried = 0;
+    for (const CandidateScore& c : diag.ranked) {
+      const bool large = c.rmse_predicted < (1.0 - options.large_effect_rmse_drop) * diag.rmse;
+      if ((!c.significant && !large) || tried >= 3) continue;
+      ++tried;
+      std::vector<std::string> trial = effects;
+      trial.push_back(c.effect);
+      Identifier next(config, wheelbase_m, model::ModelSpec::FromNames(trial));
+      next.set_drive_loads(fit.drive_loads);  // load_change: start from the current ratios
+      std::vector<double> warm = Extend(current.spec(), fit.AllValues(), next.spec());
+      IdentificationResult f2 = next.Identify(training, validation, std::optional<std::vector<double>>(warm));
+      if (!f2.valid) continue;
+      const double before = held_out(fit), after = held_out(f2);
+      // BIC with an effective sample size (residuals are autocorrelated): n_eff = n / tau.
+      const double n_eff = static_cast<double>(f2.residuals_train) / 25.0;
+      const double dbic = n_eff * std::log((f2.rmse_train_mps2 * f2.rmse_train_mps2) / (fit.rmse_train_mps2 * fit.rmse_train_mps2)) +
+                          (f2.effect_params.size() - fit.effect_params.size()) * std::log(std::max(n_eff, 2.0));
+      spdlog::info("ladder: + {}: held-out RMSE {:.4f} -> {:.4f}, dBIC {:.1f}", c.effect, before, after, dbic);
+      if (after < before * (1.0 - options.min_relative_improvement) && dbic < 0) {
+        effects = trial;
+        current = next;
+        fit = f2;
+        current.set_drive_loads(fit.drive_loads);
+        ladder.rungs.push_back({current.spec().Describe(), c.effect, fit, dbic});
+        improved = true;
+        break;
+      }
+    }
+    if (!improved) {
+      ladder.stop_reason = tried == 0 ? "no significant candidate left" : "no candidate improved the held-out RMSE";
+      break;
+    }
+  }
+  if (ladder.stop_reason.empty()) ladder.stop_reason = "step limit reached";
+  return ladder;
+}
+
+}  // namespace ndsid::discover

@@ -1,0 +1,154 @@
+#include "ndsid/pipeline/pipeline.h"
+
+#include <spdlog/spdlog.h>
+
+#include "ndsid/common/error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace ndsid::pipeline {
+
+Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
+    : config_(config),
+      sync_(config),
+      extractor_(config, db),
+      gate_(config.gate, 1.0 / config.sync.rate_hz),
+      accumulator_(config, config.sync.rate_hz),
+      identifier_(config.identification, config.vehicle.wheelbase_m,
+                  (model::RegisterFormulaEffects(config.model_formulas), model::ModelSpec::FromNames(config.model_effects))),
+      adequacy_(config.adequacy) {
+  samples_.reserve(1024);
+  // model.priors must name a parameter of the base model, of a library effect or of a formula.
+  if (config.identification.priors.empty()) return;
+  std::vector<std::string> known;
+  const model::ModelSpec base;
+  for (int i = 0; i < base.num_params(); ++i) known.push_back(base.param_name(i));
+  std::vector<std::string> effects = model::BuiltinEffectNames();
+  for (const auto& f : config.model_formulas) effects.push_back(f.name);
+  for (const auto& e : effects) {
+    const model::ModelSpec one = model::ModelSpec::FromNames({e});
+    for (int i = model::kNumParams; i < one.num_params(); ++i) known.push_back(one.param_name(i));
+  }
+  for (const config::ParameterPrior& pr : config.identification.priors) {
+    if (std::find(known.begin(), known.end(), pr.name) == known.end()) {
+      throw ConfigError(pr.location + ": model.priors: '" + pr.name +
+                        "' is not a parameter of the base model, a library effect or a formula");
+    }
+  }
+}
+
+void Pipeline::ProcessFrames(std::span<const can::CanFrame> frames, const std::vector<std::string>& bus_names) noexcept {
+  for (const can::CanFrame& f : frames) {
+    ++frames_;
+    if (f.timestamp_ns > data_time_ns_) data_time_ns_ = f.timestamp_ns;
+    sync_.Advance(f.timestamp_ns, samples_);
+    extractor_.Process(f, bus_names, sync_);
+    if (samples_.size() >= 512) ConsumeSamples();
+  }
+  ConsumeSamples();
+}
+
+void Pipeline::ConsumeSamples() noexcept {
+  for (const sync::Sample& s : samples_) {
+    const gate::GatedSample g = gate_.Process(s);
+    if (observer_) observer_(g);
+    accumulator_.Add(g);
+  }
+  samples_.clear();
+}
+
+void Pipeline::Finish() {
+  sync_.Flush(samples_);
+  ConsumeSamples();
+  accumulator_.Finish();
+}
+
+bool Pipeline::IdentificationDue() const {
+  if (accumulator_.gated_hours() <= last_fit_gated_hours_) return false;
+  if (accumulator_.window().empty()) return false;
+  return static_cast<double>(data_time_ns_ - last_fit_data_ns_) * 1e-9 >= config_.identification.period_s;
+}
+
+WindowSnapshot Pipeline::Snapshot() const {
+  WindowSnapshot snap;
+  const double frac = config_.identification.validation_fraction;
+  const int64_t every = frac > 0 ? std::max<int64_t>(2, std::llround(1.0 / frac)) : 0;
+  // Held-out drives: every k-th drive (k = 1/validation_fraction); with fewer than k drives in
+  // the window, the shortest one (training keeps most of the data), so that a validation RMSE
+  // exists whenever 2 drives do.
+  std::map<int64_t, double> drive_s;
+  for (const auto& seg : accumulator_.window()) drive_s[seg->drive_id] += seg->duration_s();
+  bool any_regular = false;
+  for (const auto& [d, s] : drive_s) any_regular = any_regular || (every > 0 && d % every == every - 1);
+  int64_t fallback = -1;
+  if (every > 0 && !any_regular && drive_s.size() >= 2) {
+    fallback = std::min_element(drive_s.begin(), drive_s.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
+  }
+  for (const auto& seg : accumulator_.window()) {
+    snap.keep_alive.push_back(seg);
+    const bool held_out = (every > 0 && seg->drive_id % every == every - 1) || seg->drive_id == fallback;
+    (held_out ? snap.validation : snap.training).push_back(seg.get());
+  }
+  if (snap.training.empty()) {  // a single drive: train on everything, no validation
+    snap.training.swap(snap.validation);
+  }
+  snap.gated_hours = accumulator_.gated_hours();
+  snap.window_hours = accumulator_.window_hours();
+  snap.data_time_ns = data_time_ns_;
+  const bool yaw = config_.role(config::Role::kYawRate) != nullptr;
+  snap.steady_state = accumulator_.steady_state().Estimate(config_.vehicle.wheelbase_m, yaw);
+  snap.coverage = accumulator_.coverage();
+  return snap;
+}
+
+std::optional<std::vector<double>> Pipeline::WarmStart() const {
+  if (last_ && last_->fit.valid) return last_->fit.AllValues();
+  const bool yaw = config_.role(config::Role::kYawRate) != nullptr;
+  const auto ss = accumulator_.steady_state().Estimate(config_.vehicle.wheelbase_m, yaw);
+  if (ss.valid) return identifier_.FullVector(identifier_.WarmStart(ss.steer_ratio, ss.eg_rad_per_mps2));
+  return std::nullopt;
+}
+
+std::optional<model::Params<double>> Pipeline::WarmStartBase() const {
+  const auto full = WarmStart();
+  if (!full) return std::nullopt;
+  return model::Params<double>::FromArray(full->data());
+}
+
+identify::IdentificationResult Pipeline::Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
+                                             const std::optional<std::vector<double>>& warm_start) {
+  return identifier.Identify(snap.training, snap.validation, warm_start);
+}
+
+const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit) {
+  last_fit_data_ns_ = snap.data_time_ns;
+  last_fit_gated_hours_ = snap.gated_hours;
+  Estimate e;
+  e.data_time_ns = snap.data_time_ns;
+  e.steady_state = snap.steady_state;
+  e.gated_hours = snap.gated_hours;
+  e.window_hours = snap.window_hours;
+  e.training_segments = snap.training.size();
+  e.validation_segments = snap.validation.size();
+  e.fit = std::move(fit);
+  if (e.fit.valid) {
+    e.adequacy = adequacy_.Update(snap.gated_hours, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2, snap.coverage);
+    last_ = e;
+  } else {
+    // Keep the last good estimate; report this one as not valid with its reason.
+    e.adequacy = adequacy_.last();
+    spdlog::warn("identification not valid: {}", e.fit.reason);
+    if (!last_) last_ = e;
+  }
+  history_.push_back(e);
+  return history_.back();
+}
+
+const Estimate& Pipeline::IdentifyNow() {
+  const WindowSnapshot snap = Snapshot();
+  return Accept(snap, Fit(identifier_, snap, WarmStart()));
+}
+
+}  // namespace ndsid::pipeline

@@ -1,0 +1,492 @@
+#include <fcntl.h>
+#include <signal.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <future>
+#include <limits>
+#include <thread>
+
+#include "daemon.h"
+#include "daemon_messages.h"
+#include "daemon_monitor.h"
+#include "daemon_source.h"
+#include "ndsid/can/socketcan_source.h"
+#include "ndsid/common/atomic_file.h"
+#include "ndsid/dbc/dbc_parser.h"
+#include "ndsid/publish/lcm_publisher.h"
+#include "state_store.h"
+
+namespace ndsid::service {
+
+namespace {
+
+constexpr int kReadTimeout_ms = 100;       // bounds the reaction to signals and the watchdog period
+constexpr size_t kBatchFrames = 1024;      // frames per Read() as fast as possible
+constexpr size_t kRealtimeBatchFrames = 64;
+constexpr int64_t kMaxPaceSleep_ns = 50'000'000;
+
+int64_t MonoNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Configuration, DBC and the pipeline built on them: replaced together on a reload.
+struct Estimator {
+  std::unique_ptr<config::Config> config;
+  std::unique_ptr<dbc::Database> db;
+  std::unique_ptr<pipeline::Pipeline> pipeline;
+};
+
+Estimator BuildEstimator(const std::string& path) {
+  Estimator e;
+  e.config = std::make_unique<config::Config>(config::LoadConfig(path));
+  const config::Config& c = *e.config;
+  try {
+    e.db = std::make_unique<dbc::Database>(dbc::ParseDbcFile(c.dbc));
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const Error& err) {
+    throw ConfigError(FormatLocation(c.path, 0, 0, std::string("dbc: ") + err.what()));
+  }
+  config::ValidateAgainstDbc(c, *e.db);
+  if (c.source.type == config::SourceConfig::Type::kLog) {
+    for (const std::string& log : c.source.logs) {
+      if (::access(log.c_str(), R_OK) != 0) {
+        throw ConfigError(FormatLocation(c.path, 0, 0, "source.logs: cannot read '" + log + "'"));
+      }
+    }
+  }
+  if (c.lcm.url.find("://") == std::string::npos) {
+    throw ConfigError(FormatLocation(c.path, 0, 0, "lcm.url: '" + c.lcm.url + "' is not an LCM URL (e.g. udpm://239.255.76.67:7667?ttl=0)"));
+  }
+  e.pipeline = std::make_unique<pipeline::Pipeline>(c, *e.db);
+  return e;
+}
+
+std::shared_ptr<publish::EstimateSink> MakeLcmSink(const config::Config& c) {
+  return std::make_shared<publish::LcmPublisher>(c.lcm.url, publish::LcmChannels{c.lcm.estimate_channel,
+                                                                                c.lcm.status_channel,
+                                                                                c.lcm.monitor_channel});
+}
+
+std::atomic<Daemon*> g_signal_target{nullptr};
+
+void OnSignal(int sig) {
+  Daemon* d = g_signal_target.load();
+  if (!d) return;
+  if (sig == SIGHUP) {
+    d->RequestReload();
+  } else {
+    d->RequestStop();
+  }
+}
+
+}  // namespace
+
+struct Daemon::Impl {
+  DaemonOptions opt;
+  ServiceNotifier notifier;
+  Estimator est;
+  std::unique_ptr<StateStore> store;
+  std::shared_ptr<publish::EstimateSink> sink;
+  std::unique_ptr<can::FrameSource> source;
+  bool source_is_log = false;
+  std::unique_ptr<ModelMonitor> monitor;
+  std::atomic<bool> stop{false}, reload{false};
+
+  struct Job {
+    std::shared_ptr<const pipeline::WindowSnapshot> snap;
+    std::future<identify::IdentificationResult> result;
+    int64_t started_ns = 0;
+  };
+  std::optional<Job> job;
+  std::future<void> persist_job;
+  int32_t identifications = 0;
+  int64_t restored_data_time_ns = std::numeric_limits<int64_t>::min();  // log frames up to this are learned
+  uint64_t skipped_resume = 0;
+  can::SourceState source_state = can::SourceState::kOk;
+  int64_t last_status_ns = 0, last_watchdog_ns = 0, last_persist_ns = 0, last_persist_done_ns = -1;
+  int64_t pace_data0_ns = 0, pace_wall0_ns = -1;
+  std::optional<pipeline::Estimate> final_estimate;
+
+  const config::Config& cfg() const { return *est.config; }
+  pipeline::Pipeline& pipe() { return *est.pipeline; }
+  void Notify(const std::string& s) {
+    if (notifier.notify) notifier.notify(s);
+  }
+  bool realtime() const { return opt.realtime || opt.speed != 1.0 || cfg().source.realtime; }
+
+  void ApplyLogLevel() { spdlog::set_level(spdlog::level::from_str(cfg().log_level)); }
+
+  void AttachMonitor() {
+    const config::Config& c = cfg();
+    monitor = std::make_unique<ModelMonitor>(c.vehicle.wheelbase_m, c.sync.rate_hz, c.lcm.monitor_rate_hz);
+    const auto& last = pipe().last_estimate();
+    monitor->SetParams(last && last->fit.valid ? std::optional(last->fit.AsParams()) : pipe().WarmStartBase());
+    pipe().SetSampleObserver([this](const gate::GatedSample& g) {
+      if (auto m = monitor->Observe(g)) sink->PublishMonitor(*m);
+    });
+  }
+
+  void LoadState() {
+    StateStore::LoadResult r = store->Load();
+    if (!r.state) {
+      if (r.message.find("moved aside") != std::string::npos) {
+        spdlog::warn("{}", r.message);
+      } else {
+        spdlog::info("{}", r.message);
+      }
+      return;
+    }
+    try {
+      std::string dropped;
+      RestoreState(pipe(), cfg(), *r.state, dropped);
+      if (!dropped.empty()) spdlog::warn("learned state: last estimate dropped ({}); statistics kept", dropped);
+      identifications = r.state->identifications;
+      restored_data_time_ns = r.state->data_time_ns;
+      spdlog::info("{}: {:.4f} gated h, {} drives, {} window segments, {} identifications, data up to {:.6f} s",
+                   r.message, pipe().accumulator().gated_hours(), pipe().accumulator().drives().size(),
+                   pipe().accumulator().window().size(), identifications, restored_data_time_ns * 1e-9);
+    } catch (const StateFileError& e) {
+      const std::string moved = store->Quarantine(e.kind() == StateFileError::Kind::kForeign ? "foreign" : "corrupt");
+      spdlog::warn("learned state {} rejected ({}): moved aside to {}, starting fresh", store->path(), e.what(), moved);
+    }
+  }
+
+  void OpenSource() {
+    const config::Config& c = cfg();
+    if (opt.source_factory) {
+      source = opt.source_factory(c, pipe().extractor());
+      source_is_log = false;
+    } else if (c.source.type == config::SourceConfig::Type::kLog) {
+      source = std::make_unique<LogSequence>(c.source.logs);
+      source_is_log = true;
+    } else {
+      can::SocketCanOptions o;
+      o.interface = c.source.interface;
+      for (const auto& id : pipe().extractor().NeededIds()) o.ids.push_back({id.id, id.extended});
+      source = std::make_unique<can::SocketCanSource>(std::move(o));
+      source_is_log = false;
+    }
+  }
+
+  // Resume skip (logs only: a live clock may legitimately be behind a state learned from a
+  // log), realtime pacing, then the pipeline.
+  void Feed(std::span<can::CanFrame> frames) {
+    if (source_is_log && restored_data_time_ns != std::numeric_limits<int64_t>::min()) {
+      size_t keep = 0;
+      for (const can::CanFrame& f : frames) {
+        if (f.timestamp_ns <= restored_data_time_ns) {
+          ++skipped_resume;
+        } else {
+          frames[keep++] = f;
+        }
+      }
+      frames = frames.first(keep);
+    }
+    if (frames.empty()) return;
+    if (!realtime()) {
+      pipe().ProcessFrames(frames, source->bus_names());
+      return;
+    }
+    size_t start = 0;
+    for (size_t i = 0; i < frames.size() && !stop; ++i) {
+      if (pace_wall0_ns < 0) {
+        pace_wall0_ns = MonoNs();
+        pace_data0_ns = frames[i].timestamp_ns;
+      }
+      const double speed = opt.speed > 0 ? opt.speed : 1.0;
+      const int64_t due = pace_wall0_ns + static_cast<int64_t>(static_cast<double>(frames[i].timestamp_ns - pace_data0_ns) / speed);
+      if (due <= MonoNs()) continue;
+      pipe().ProcessFrames(frames.subspan(start, i - start), source->bus_names());
+      start = i;
+      for (int64_t now = MonoNs(); now < due && !stop; now = MonoNs()) {
+        std::this_thread::sleep_for(std::chrono::nanoseconds(std::min(due - now, kMaxPaceSleep_ns)));
+        Tick();
+      }
+    }
+    pipe().ProcessFrames(frames.subspan(start), source->bus_names());
+  }
+
+  void StartJob() {
+    Job j;
+    j.snap = std::make_shared<const pipeline::WindowSnapshot>(pipe().Snapshot());
+    j.started_ns = MonoNs();
+    // The worker owns copies of everything it touches (snapshot, identifier, warm start).
+    j.result = std::async(std::launch::async, [snap = j.snap, identifier = pipe().identifier(), warm = pipe().WarmStart()] {
+      try {
+        return pipeline::Pipeline::Fit(identifier, *snap, warm);
+      } catch (const std::exception& e) {
+        identify::IdentificationResult r;
+        r.valid = false;
+        r.reason = std::string("identification failed: ") + e.what();
+        return r;
+      }
+    });
+    spdlog::debug("identification started: {} training / {} validation segments, {:.3f} gated h", j.snap->training.size(),
+                  j.snap->validation.size(), j.snap->gated_hours);
+    job = std::move(j);
+  }
+
+  void AcceptJob() {
+    Job j = std::move(*job);
+    job.reset();
+    const pipeline::Estimate& e = pipe().Accept(*j.snap, j.result.get());
+    ++identifications;
+    if (e.fit.valid) {
+      spdlog::info("identification {}: EG {:.4e} rad/(m/s^2) = {:.3f} deg/g (sigma {:.2e}), RMSE {:.3f}/{:.3f} m/s^2, "
+                   "{:.3f} gated h, {} ({:.1f} s)",
+                   identifications, e.fit.eg_rad_per_mps2, e.fit.eg_deg_per_g, e.fit.eg_se_rad_per_mps2,
+                   e.fit.rmse_train_mps2, e.fit.rmse_validation_mps2, e.gated_hours, adequacy::StateName(e.adequacy.state),
+                   (MonoNs() - j.started_ns) * 1e-9);
+      monitor->SetParams(e.fit.AsParams());
+    }
+    PublishEstimate();
+    Notify("STATUS=" + StatusLine(pipe().last_estimate(), pipe()));
+    Persist(false);
+  }
+
+  void PollJob() {
+    if (job && job->result.wait_for(std::chrono::seconds(0)) == std::future_status::ready) AcceptJob();
+  }
+
+  void PublishEstimate() { sink->PublishEstimate(MakeEstimateMessage(pipe().last_estimate(), pipe(), cfg(), identifications)); }
+
+  void PublishStatus() {
+    SourceView v{source->Describe(), source_state, source->counters(), skipped_resume};
+    const double age = last_persist_done_ns < 0 ? -1.0 : (MonoNs() - last_persist_done_ns) * 1e-9;
+    sink->PublishStatus(MakeStatusMessage(pipe(), cfg(), v, job.has_value(), age));
+  }
+
+  LearnedState Capture() {
+    LearnedState st = CaptureState(pipe(), cfg(), identifications);
+    st.data_time_ns = std::max(st.data_time_ns, restored_data_time_ns);
+    return st;
+  }
+
+  // Captures on the reading thread; writes on a helper thread unless `wait` (shutdown).
+  void Persist(bool wait) {
+    if (persist_job.valid()) {
+      if (!wait && persist_job.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+      persist_job.get();
+    }
+    last_persist_ns = MonoNs();
+    auto write = [this, st = std::make_shared<LearnedState>(Capture())] {
+      try {
+        store->Save(*st);
+        last_persist_done_ns = MonoNs();
+        spdlog::debug("learned state written to {} ({:.4f} gated h)", store->path(), st->data_time_ns * 1e-9);
+      } catch (const std::exception& e) {
+        spdlog::error("cannot write learned state: {}", e.what());
+      }
+    };
+    if (wait) {
+      write();
+    } else {
+      persist_job = std::async(std::launch::async, write);
+    }
+  }
+
+  void Tick() {
+    PollJob();
+    if (!job && !reload && pipe().IdentificationDue()) StartJob();
+    const int64_t now = MonoNs();
+    if (now - last_status_ns >= static_cast<int64_t>(1e9 / cfg().lcm.status_rate_hz)) {
+      last_status_ns = now;
+      PublishStatus();
+      PublishEstimate();  // repeated, so a late subscriber sees the current estimate
+      Notify("STATUS=" + StatusLine(pipe().last_estimate(), pipe()));
+    }
+    if (notifier.watchdog_usec > 0 && now - last_watchdog_ns >= static_cast<int64_t>(notifier.watchdog_usec) * 1000 / 3) {
+      last_watchdog_ns = now;
+      Notify("WATCHDOG=1");
+    }
+    if (now - last_persist_ns >= static_cast<int64_t>(opt.persist_interval_s * 1e9)) Persist(false);
+  }
+
+  void Reload() {
+    reload = false;
+    Notify("RELOADING=1");
+    spdlog::info("SIGHUP: reloading {}", opt.config_path);
+    try {
+      Estimator next = BuildEstimator(opt.config_path);
+      const config::Config& n = *next.config;
+      if (n.vehicle.name != cfg().vehicle.name) {
+        throw ConfigError("vehicle.name changed from '" + cfg().vehicle.name + "' to '" + n.vehicle.name +
+                          "': another vehicle's learned state; restart the service to switch");
+      }
+      std::shared_ptr<publish::EstimateSink> next_sink = sink;
+      const auto& a = cfg().lcm;
+      const auto& b = n.lcm;
+      if (!opt.sink && (a.url != b.url || a.estimate_channel != b.estimate_channel || a.status_channel != b.status_channel ||
+                        a.monitor_channel != b.monitor_channel)) {
+        next_sink = MakeLcmSink(n);
+      }
+      std::string dropped;
+      RestoreState(*next.pipeline, n, Capture(), dropped);
+      if (!dropped.empty()) spdlog::warn("reload: last estimate dropped under the new configuration ({})", dropped);
+      if (n.source.type != cfg().source.type || n.source.logs != cfg().source.logs ||
+          n.source.interface != cfg().source.interface || n.source.bus != cfg().source.bus) {
+        spdlog::warn("reload: source changes take effect at the next start");
+      }
+      if (persist_job.valid()) persist_job.get();
+      store = std::make_unique<StateStore>(n.state_dir, n.vehicle.name);
+      est = std::move(next);
+      sink = std::move(next_sink);
+      AttachMonitor();
+      ApplyLogLevel();
+      spdlog::info("configuration reloaded; learned state kept ({:.4f} gated h)", pipe().accumulator().gated_hours());
+    } catch (const std::exception& e) {
+      spdlog::error("reload rejected, keeping the running configuration: {}", e.what());
+    }
+    Notify("READY=1");
+  }
+
+  int Run() {
+    ApplyLogLevel();
+    LoadState();
+    AttachMonitor();
+    OpenSource();
+    spdlog::info("ndsidd: vehicle {}, reading {}{}, publishing on {}", cfg().vehicle.name, source->Describe(),
+                 realtime() ? " (realtime)" : "", opt.sink ? "a test sink" : cfg().lcm.url);
+    Notify("READY=1");
+    Notify("STATUS=" + StatusLine(pipe().last_estimate(), pipe()));
+    PublishEstimate();
+    last_persist_ns = MonoNs();
+    std::vector<can::CanFrame> buf(realtime() ? kRealtimeBatchFrames : kBatchFrames);
+    bool end_of_data = false;
+    while (!stop) {
+      if (reload && !job) Reload();
+      const can::ReadResult r = source->Read(buf, kReadTimeout_ms);
+      if (r.state != source_state && r.state == can::SourceState::kDisconnected) spdlog::warn("source {} disconnected", source->Describe());
+      source_state = r.state;
+      if (r.count > 0) Feed(std::span(buf.data(), r.count));
+      if (r.state == can::SourceState::kEnd) {
+        end_of_data = true;
+        break;
+      }
+      Tick();
+    }
+    return end_of_data ? FinishData() : Stop();
+  }
+
+  // End of the logs: final identification, persist, exit 0.
+  int FinishData() {
+    if (skipped_resume > 0) spdlog::info("skipped {} frames already in the learned state", skipped_resume);
+    if (job) {
+      job->result.wait();
+      AcceptJob();
+    }
+    pipe().Finish();
+    pipe().IdentifyNow();
+    ++identifications;
+    final_estimate = pipe().last_estimate();
+    const std::string line = FinalLine(final_estimate, pipe());
+    spdlog::info("{}", line);
+    std::printf("%s\n", line.c_str());
+    std::fflush(stdout);
+    PublishEstimate();
+    PublishStatus();
+    Notify("STOPPING=1");
+    Persist(true);
+    return 0;
+  }
+
+  // A stop request: persist first (a SIGKILL after the stop timeout then loses nothing), then
+  // let a running identification finish and persist again.
+  int Stop() {
+    Notify("STOPPING=1");
+    spdlog::info("stopping: writing learned state to {}", store->path());
+    Persist(true);
+    if (job) {
+      spdlog::info("waiting for the running identification (started {:.1f} s ago)", (MonoNs() - job->started_ns) * 1e-9);
+      job->result.wait();
+      AcceptJob();
+      Persist(true);
+    }
+    final_estimate = pipe().last_estimate();
+    return 0;
+  }
+};
+
+Daemon::Daemon(DaemonOptions options, ServiceNotifier notifier) : impl_(std::make_unique<Impl>()) {
+  Impl& d = *impl_;
+  d.opt = std::move(options);
+  d.notifier = std::move(notifier);
+  d.est = BuildEstimator(d.opt.config_path);
+  d.store = std::make_unique<StateStore>(d.cfg().state_dir, d.cfg().vehicle.name);
+  d.sink = d.opt.sink ? d.opt.sink : MakeLcmSink(d.cfg());
+}
+
+Daemon::~Daemon() {
+  Daemon* self = this;
+  g_signal_target.compare_exchange_strong(self, nullptr);
+  if (impl_->persist_job.valid()) impl_->persist_job.wait();
+  if (impl_->job) impl_->job->result.wait();
+}
+
+int Daemon::Run() { return impl_->Run(); }
+void Daemon::RequestStop() noexcept { impl_->stop = true; }
+void Daemon::RequestReload() noexcept { impl_->reload = true; }
+const std::optional<pipeline::Estimate>& Daemon::final_estimate() const { return impl_->final_estimate; }
+
+void CheckConfig(const std::string& config_path) {
+  const Estimator e = BuildEstimator(config_path);
+  std::printf("%s: configuration OK (vehicle %s, DBC %s, %s)\n", config_path.c_str(), e.config->vehicle.name.c_str(),
+              e.config->dbc.c_str(),
+              e.config->source.type == config::SourceConfig::Type::kLog
+                  ? (std::to_string(e.config->source.logs.size()) + " log file(s)").c_str()
+                  : ("socketcan " + e.config->source.interface).c_str());
+}
+
+int ShowState(const std::string& config_path) {
+  const config::Config c = config::LoadConfig(config_path);
+  StateStore store(c.state_dir, c.vehicle.name);
+  std::printf("state file: %s\n", store.path().c_str());
+  LearnedState st;
+  try {
+    st = DecodeState(ReadWholeFile(store.path()), c.vehicle.name);
+  } catch (const std::exception& e) {
+    std::printf("not usable: %s\n", e.what());
+    return 1;
+  }
+  stats::Accumulator acc(c, c.sync.rate_hz);
+  try {
+    acc.Restore(st.accumulator);
+  } catch (const std::exception& e) {
+    std::printf("not usable: %s\n", e.what());
+    return 1;
+  }
+  size_t used = 0;
+  for (const auto& d : acc.drives()) used += d.used ? 1 : 0;
+  std::printf("vehicle: %s\ndata_time_s: %.6f\ngated_hours: %.6f\ndrives: %zu (%zu used)\nwindow: %zu segments, %.4f h\n"
+              "identifications: %d\n",
+              st.vehicle.c_str(), st.data_time_ns * 1e-9, acc.gated_hours(), acc.drives().size(), used, acc.window().size(),
+              acc.window_hours(), st.identifications);
+  if (st.last_estimate) {
+    const auto& f = st.last_estimate->fit;
+    const std::string why = CheckEstimate(*st.last_estimate, c);
+    std::printf("last estimate: valid=%d EG=%.9e rad/(m/s^2) sigma=%.3e EG_deg_per_g=%.6f%s%s\n", f.valid ? 1 : 0,
+                f.eg_rad_per_mps2, f.eg_se_rad_per_mps2, f.eg_deg_per_g, why.empty() ? "" : " REJECTED: ", why.c_str());
+  } else {
+    std::printf("last estimate: none\n");
+  }
+  return 0;
+}
+
+void InstallSignalHandlers(Daemon& daemon) {
+  g_signal_target = &daemon;
+  struct sigaction sa {};
+  sa.sa_handler = OnSignal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = 0;  // no SA_RESTART: a blocking read returns at once and the loop sees the flag
+  for (int sig : {SIGTERM, SIGINT, SIGHUP}) sigaction(sig, &sa, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
+}
+
+}  // namespace ndsid::service

@@ -1,0 +1,34 @@
+// The daemon's log input: the candump files of config.source.logs, one after another, as one
+// FrameSource (kEnd only after the last). A file that cannot be opened is logged and skipped.
+// Thread: the reading thread (the only reader of the frame source).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ndsid/can/candump_reader.h"
+#include "ndsid/can/frame_source.h"
+
+namespace ndsid::service {
+
+class LogSequence final : public can::FrameSource {
+ public:
+  explicit LogSequence(std::vector<std::string> paths);
+  can::ReadResult Read(std::span<can::CanFrame> out, int timeout_ms) noexcept override;
+  const can::SourceCounters& counters() const noexcept override;
+  const std::vector<std::string>& bus_names() const noexcept override;
+  std::string Describe() const override;
+
+ private:
+  void CloseCurrent() noexcept;
+
+  std::vector<std::string> paths_;
+  size_t next_ = 0;
+  std::unique_ptr<can::CandumpReader> current_;
+  can::SourceCounters finished_;       // of the files already read
+  mutable can::SourceCounters total_;  // finished_ + current
+  std::vector<std::string> no_buses_;
+};
+
+}  // namespace ndsid::service

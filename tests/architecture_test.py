@@ -1,0 +1,83 @@
+#!/usr/bin/env python3
+"""Keeps docs/architecture.md and the source tree in agreement, and the stages acyclic.
+
+Catches: a stage folder added or removed without the page saying so; the page's order differing
+from the build's (NDSID_STAGES); a stage that links or includes a stage below it (a circle in the
+making); a third-party library leaking out of the one stage that owns it.
+
+usage: architecture_test.py SOURCE_DIR
+"""
+import pathlib
+import re
+import sys
+
+# Third-party headers and the one stage allowed to include them (style.md, principle 1).
+OWNED_HEADERS = {
+    "ceres/": "identify",
+    "lcm/": "publish",
+    "yaml-cpp/": "config",
+    "systemd/": "service",
+}
+# The model is written once, templated on T; the effects are compiled for Ceres' header-only
+# autodiff scalar (ceres::Jet), so the model may name that one type.
+ALLOWED = {("model", "ceres/jet.h")}
+
+
+def stage_table(doc: str) -> list[str]:
+    rows = re.findall(r"^\| `([a-z_]+)` \|", doc, flags=re.M)
+    if not rows:
+        raise SystemExit("docs/architecture.md: no stage table found")
+    return rows
+
+
+def build_order(cmake: str) -> list[str]:
+    m = re.search(r"set\(NDSID_STAGES ([^)]*)\)", cmake)
+    if not m:
+        raise SystemExit("CMakeLists.txt: NDSID_STAGES not found")
+    return m.group(1).split()
+
+
+def main() -> int:
+    root = pathlib.Path(sys.argv[1])
+    errors = []
+    documented = stage_table((root / "docs/architecture.md").read_text())
+    folders = sorted(p.name for p in (root / "src").iterdir() if (p / "CMakeLists.txt").exists())
+    order = build_order((root / "CMakeLists.txt").read_text())
+
+    if sorted(documented) != folders:
+        errors.append(f"docs/architecture.md lists {sorted(documented)}, src/ has {folders}")
+    if documented != order:
+        errors.append(f"docs/architecture.md order {documented} != CMakeLists.txt NDSID_STAGES {order}")
+    rank = {s: i for i, s in enumerate(order)}
+
+    for stage in folders:
+        sdir = root / "src" / stage
+        cm = (sdir / "CMakeLists.txt").read_text()
+        for dep in sorted(set(re.findall(r"\bndsid_([a-z_]+)\b", cm))):
+            if dep in rank and dep != stage and rank[dep] > rank[stage]:
+                errors.append(f"src/{stage}/CMakeLists.txt links ndsid_{dep}, a later stage")
+        sources = list(sdir.rglob("*.cc")) + list(sdir.rglob("*.h"))
+        inc_dir = root / "include" / "ndsid" / stage
+        if inc_dir.exists():
+            sources += list(inc_dir.rglob("*.h"))
+        if not sources:
+            errors.append(f"src/{stage}: no sources")
+        for f in sources:
+            text = f.read_text()
+            for dep in re.findall(r'#include "ndsid/([a-z_]+)/', text):
+                if dep in rank and rank[dep] > rank[stage]:
+                    errors.append(f"{f.relative_to(root)} includes ndsid/{dep}/, a later stage than {stage}")
+            for prefix, owner in OWNED_HEADERS.items():
+                for inc in re.findall(r"#include <(" + re.escape(prefix) + r"[^>]*)>", text):
+                    if stage == owner or (stage, inc) in ALLOWED:
+                        continue
+                    errors.append(f"{f.relative_to(root)} includes <{inc}>, which only {owner} may use")
+
+    for e in errors:
+        print("FAIL:", e)
+    print(f"{len(folders)} stages checked, {len(errors)} problems")
+    return 1 if errors else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
