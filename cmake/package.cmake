@@ -16,8 +16,10 @@ as a hardened systemd service. ndsid is the desk tool: decode, replay, compare,
 diagnose, study and simulate on candump logs. Includes the LCM message types
 (C++ headers, Java jar, Python module), an example vehicle configuration for
 can0 with its DBC, and ndsid-lcm-spy (lcm-spy for Java 17).")
-set(CPACK_PACKAGE_CONTACT "ndsid maintainers <ndsid@localhost>")
-set(CPACK_DEBIAN_PACKAGE_MAINTAINER "${CPACK_PACKAGE_CONTACT}")
+set(NDSID_DEB_MAINTAINER "ndsid maintainers <ndsid@localhost>" CACHE STRING
+    "Maintainer: of the Debian package (name <address>); lintian rejects the default's address")
+set(CPACK_PACKAGE_CONTACT "${NDSID_DEB_MAINTAINER}")
+set(CPACK_DEBIAN_PACKAGE_MAINTAINER "${NDSID_DEB_MAINTAINER}")
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_PRIORITY optional)
 set(CPACK_DEBIAN_PACKAGE_RELEASE 1)
@@ -42,6 +44,16 @@ foreach(f conffiles postinst prerm postrm)
   list(APPEND CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA "${ndsid_control_dir}/${f}")
 endforeach()
 set(CPACK_DEBIAN_PACKAGE_CONTROL_STRICT_PERMISSION ON)  # conffiles 0644, scripts 0755
+# /usr/share/doc/ndsid/changelog.Debian.gz (Debian policy 12.7), dated at configure time
+# (SOURCE_DATE_EPOCH when set), compressed without a time stamp so rebuilds are identical.
+string(TIMESTAMP NDSID_CHANGELOG_DATE "%a, %d %b %Y %H:%M:%S +0000" UTC)
+configure_file("${CMAKE_SOURCE_DIR}/cmake/debian/changelog.Debian" "${ndsid_control_dir}/changelog.Debian" @ONLY)
+execute_process(COMMAND gzip -9nc "${ndsid_control_dir}/changelog.Debian"
+                OUTPUT_FILE "${ndsid_control_dir}/changelog.Debian.gz" RESULT_VARIABLE ndsid_gzip_rc)
+if(NOT ndsid_gzip_rc EQUAL 0)
+  message(FATAL_ERROR "ndsid: gzip of changelog.Debian failed (${ndsid_gzip_rc})")
+endif()
+install(FILES "${ndsid_control_dir}/changelog.Debian.gz" DESTINATION "${CMAKE_INSTALL_DOCDIR}")
 set(CPACK_PACKAGE_DIRECTORY "${CMAKE_BINARY_DIR}/dist")
 set(CPACK_PRE_BUILD_SCRIPTS "${CMAKE_SOURCE_DIR}/cmake/package_fix_modes.cmake")  # folders 0755 whatever the umask
 include(CPack)

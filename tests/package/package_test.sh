@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The Debian package, end to end (docs/install.md):
 #   1. cpack -G DEB from this build tree (under umask 077: the package must not depend on it)
-#   2. control data (dpkg-deb -I): Depends covers every shared library the binaries link,
-#      the conffile, the maintainer scripts
+#   2. control data (dpkg-deb -I): Depends covers every shared library the binaries link and
+#      is satisfiable on this Debian 12 system (apt-get install -s), the conffile, the
+#      maintainer scripts
 #   3. contents (dpkg-deb -c): the expected files with their modes, root-owned, nothing
 #      outside /usr and /etc
 #   4. dpkg --root into a scratch root (systemd is not PID 1 there), maintainer scripts run
@@ -81,6 +82,13 @@ done
 (( needed >= 10 )) || fail "only $needed NEEDED entries found (the check would prove little)"
 (( missing == 0 )) || fail "$missing needed libraries' packages are missing from Depends"
 pass "Depends names the package of each of the $needed libraries ndsidd and ndsid link (ELF NEEDED)"
+# ... and this Debian 12 system's packages satisfy Depends, versions and virtual names included.
+if command -v apt-get >/dev/null; then
+  apt-get install -s "$deb" >apt-simulate.txt 2>&1 || { cat apt-simulate.txt; fail "apt-get install -s: Depends not satisfiable"; }
+  grep -q "^Inst ndsid " apt-simulate.txt || { cat apt-simulate.txt; fail "apt-get install -s would not install ndsid"; }
+  extra="$(grep '^Inst ' apt-simulate.txt | grep -v '^Inst ndsid ' || true)"
+  pass "apt-get install -s: Depends satisfied by this Debian 12 system${extra:+ after installing: $(echo "$extra" | cut -d' ' -f2 | tr '\n' ' ')}"
+fi
 
 # --- 3. contents ---------------------------------------------------------------------------
 dpkg-deb -c "$deb" >contents.txt || fail "dpkg-deb -c"
@@ -94,7 +102,7 @@ for f in /etc/ndsid/vehicle.yaml /usr/lib/systemd/system/ndsidd.service /usr/sha
          /usr/include/ndsid/status_t.hpp /usr/include/ndsid/monitor_t.hpp \
          /usr/lib/python3/dist-packages/ndsid/__init__.py /usr/lib/python3/dist-packages/ndsid/estimate_t.py \
          /usr/share/ndsid/systemd/80-can0.network /usr/share/doc/ndsid/install.md /usr/share/doc/ndsid/daemon.md \
-         /usr/share/doc/ndsid/monitoring.md /usr/share/doc/ndsid/configuration.md; do
+         /usr/share/doc/ndsid/monitoring.md /usr/share/doc/ndsid/configuration.md /usr/share/doc/ndsid/changelog.Debian.gz; do
   expect_mode -rw-r--r-- "$f"
 done
 bad_dirs="$(grep '^d' contents.txt | grep -v '^drwxr-xr-x root/root ' || true)"
@@ -168,6 +176,13 @@ if [[ -f /usr/include/lcm/lcm-cpp.hpp ]] && command -v c++ >/dev/null; then
 fi
 unzip -l "$root/usr/share/ndsid/java/ndsid_lcmtypes.jar" 2>/dev/null | grep -q "ndsid/estimate_t.class" ||
   fail "ndsid_lcmtypes.jar lacks ndsid/estimate_t.class"
+# The installed launcher finds the installed jar next to itself (headless: it stops at the window).
+if command -v java >/dev/null && [[ -f /usr/share/java/lcm.jar && -f /usr/share/java/jchart2d.jar ]]; then
+  spy="$(env -u DISPLAY -u NDSID_LCMTYPES_JAR -u CLASSPATH timeout 60 "$root/usr/bin/ndsid-lcm-spy" 2>&1)"
+  echo "$spy" | grep -q "Found $(ls "$root"/usr/share/ndsid/lcmtypes/*.lcm | wc -l) LCM types" ||
+    fail "installed ndsid-lcm-spy did not load the installed types: $spy"
+  pass "installed ndsid-lcm-spy loads the installed type jar"
+fi
 
 # --- 6. remove, purge ----------------------------------------------------------------------
 echo "# edited by the administrator" >>"$cfg"
