@@ -35,6 +35,7 @@ check_prefix() {
   (( n >= 4 )) || fail "$prefix: only $n installed paths found in unit+config (the check would prove nothing)"
   [[ "$(stat -c %a "$cfg")" == 644 && "$(stat -c %a "$unit")" == 644 ]] || fail "$prefix: config/unit modes $(stat -c %a "$cfg" "$unit")"
   echo "PASS: --prefix $prefix: unit and $etc/ndsid/vehicle.yaml name $n paths, all installed"
+  rm -rf "$dest"   # ~160 MB of unstripped binaries each
 }
 
 mkdir -p "$work"

@@ -197,4 +197,5 @@ snapshot >after.txt
 leftover="$(diff before.txt after.txt)"
 [[ -z "$leftover" ]] || fail "purge left the root different from before the install:"$'\n'"$leftover"
 pass "remove kept the edited /etc/ndsid/vehicle.yaml; purge left the root as before ($(wc -l <before.txt) paths)"
+rm -rf "$root" extracted dist/_CPack_Packages   # kept on failure, for a look
 echo "PASS: package test in $(($(date +%s) - start)) s"
