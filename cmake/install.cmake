@@ -1,40 +1,31 @@
-# Install rules for the service (included by the top-level CMakeLists.txt). With
-# -DCMAKE_INSTALL_PREFIX=/usr this gives:
+# Install rules (included by the top-level CMakeLists.txt). With the prefix /usr (the Debian
+# package, scripts/package.sh, or `cmake --install build --prefix /usr`):
 #   /usr/sbin/ndsidd, /usr/bin/ndsid                     (src/service, src/desk CMakeLists.txt)
+#   /usr/bin/ndsid-lcm-spy                               (scripts/ndsid-lcm-spy: lcm-spy for Java 17)
 #   /usr/lib/systemd/system/ndsidd.service               (paths rewritten to the prefix)
-#   /etc/ndsid/vehicle.yaml                              (config/example_vehicle.yaml, state_dir -> /var/lib/ndsid)
+#   /etc/ndsid/vehicle.yaml                              (config/example_vehicle.yaml on socketcan can0)
 #   /usr/share/ndsid/dbc/ndsid_example.dbc               (referenced by the installed config)
 #   /usr/share/ndsid/systemd/80-can0.network, 80-vcan0.* (examples for /etc/systemd/network)
 #   /usr/share/ndsid/java/ndsid_lcmtypes.jar, lcmtypes/  (lcmtypes/CMakeLists.txt)
-#   /usr/share/doc/ndsid/daemon.md, monitoring.md
-set(NDSID_UNIT_DIR "${CMAKE_INSTALL_PREFIX}/lib/systemd/system" CACHE PATH "Where ndsidd.service is installed")
-set(NDSID_CONFIG_DIR "${CMAKE_INSTALL_FULL_SYSCONFDIR}/ndsid")
-set(NDSID_DATA_DIR "${CMAKE_INSTALL_FULL_DATADIR}/ndsid")
+#   /usr/include/ndsid/*.hpp, /usr/lib/python3/dist-packages/ndsid/  (LCM types, C++ and Python)
+#   /usr/share/doc/ndsid/*.md
+#
+# The paths written INTO installed files (the unit's ExecStart, the config's dbc) are computed
+# when installing, from the prefix in force then: `cmake --install build --prefix /usr` after a
+# configure with the default /usr/local must give /usr/sbin/ndsidd in the unit, not
+# /usr/local/sbin/ndsidd (that unit exited 78). cmake/install_templates.cmake does it.
+set(NDSID_SYSTEMD_UNIT_DIR "" CACHE PATH "Where ndsidd.service is installed (empty: <install prefix>/lib/systemd/system)")
+unset(NDSID_UNIT_DIR CACHE)  # its old default froze the configure-time prefix
 
-# The unit with this prefix's paths.
-file(READ "${CMAKE_SOURCE_DIR}/systemd/ndsidd.service" ndsid_unit)
-string(REPLACE "/usr/sbin/ndsidd" "${CMAKE_INSTALL_FULL_SBINDIR}/ndsidd" ndsid_unit "${ndsid_unit}")
-string(REPLACE "/etc/ndsid/" "${NDSID_CONFIG_DIR}/" ndsid_unit "${ndsid_unit}")
-string(REPLACE "/usr/share/doc/ndsid/" "${CMAKE_INSTALL_FULL_DOCDIR}/" ndsid_unit "${ndsid_unit}")
-file(WRITE "${CMAKE_BINARY_DIR}/systemd/ndsidd.service" "${ndsid_unit}")
-install(FILES "${CMAKE_BINARY_DIR}/systemd/ndsidd.service" DESTINATION "${NDSID_UNIT_DIR}")
-
-# The default configuration: the example vehicle with installed paths (never overwrites an
-# edited /etc/ndsid/vehicle.yaml: it goes in as vehicle.yaml.example when one exists).
-file(READ "${CMAKE_SOURCE_DIR}/config/example_vehicle.yaml" ndsid_config)
-string(REGEX REPLACE "\ndbc: [^\n]*" "\ndbc: ${NDSID_DATA_DIR}/dbc/ndsid_example.dbc" ndsid_config "${ndsid_config}")
-string(REGEX REPLACE "\nstate_dir: [^\n]*" "\nstate_dir: /var/lib/ndsid        # systemd StateDirectory=ndsid" ndsid_config "${ndsid_config}")
-file(WRITE "${CMAKE_BINARY_DIR}/config/vehicle.yaml" "${ndsid_config}")
 install(CODE "
-  set(dest \"\$ENV{DESTDIR}${NDSID_CONFIG_DIR}\")
-  file(MAKE_DIRECTORY \"\${dest}\")
-  if(EXISTS \"\${dest}/vehicle.yaml\")
-    message(STATUS \"Keeping \${dest}/vehicle.yaml; new default as vehicle.yaml.example\")
-    file(COPY_FILE \"${CMAKE_BINARY_DIR}/config/vehicle.yaml\" \"\${dest}/vehicle.yaml.example\")
-  else()
-    message(STATUS \"Installing: \${dest}/vehicle.yaml\")
-    file(COPY_FILE \"${CMAKE_BINARY_DIR}/config/vehicle.yaml\" \"\${dest}/vehicle.yaml\")
-  endif()
+  set(NDSID_SOURCE_DIR [[${CMAKE_SOURCE_DIR}]])
+  set(NDSID_STAGING_DIR [[${CMAKE_BINARY_DIR}/install-templates]])
+  set(NDSID_UNIT_DIR [[${NDSID_SYSTEMD_UNIT_DIR}]])
+  set(NDSID_SBINDIR [[${CMAKE_INSTALL_SBINDIR}]])
+  set(NDSID_SYSCONFDIR [[${CMAKE_INSTALL_SYSCONFDIR}]])
+  set(NDSID_DATADIR [[${CMAKE_INSTALL_DATADIR}]])
+  set(NDSID_DOCDIR [[${CMAKE_INSTALL_DOCDIR}]])
+  include([[${CMAKE_SOURCE_DIR}/cmake/install_templates.cmake]])
 ")
 
 install(FILES "${CMAKE_SOURCE_DIR}/dbc/ndsid_example.dbc" DESTINATION "${CMAKE_INSTALL_DATADIR}/ndsid/dbc")
@@ -42,8 +33,12 @@ install(FILES "${CMAKE_SOURCE_DIR}/systemd/80-can0.network" "${CMAKE_SOURCE_DIR}
               "${CMAKE_SOURCE_DIR}/systemd/80-vcan0.network"
         DESTINATION "${CMAKE_INSTALL_DATADIR}/ndsid/systemd")
 install(PROGRAMS "${CMAKE_SOURCE_DIR}/replay/vcan_replay.sh" DESTINATION "${CMAKE_INSTALL_DATADIR}/ndsid/replay" OPTIONAL)
-foreach(doc daemon.md monitoring.md)
+install(PROGRAMS "${CMAKE_SOURCE_DIR}/scripts/ndsid-lcm-spy" DESTINATION "${CMAKE_INSTALL_BINDIR}")
+foreach(doc install.md daemon.md monitoring.md configuration.md can-input.md dbc.md)
   if(EXISTS "${CMAKE_SOURCE_DIR}/docs/${doc}")
     install(FILES "${CMAKE_SOURCE_DIR}/docs/${doc}" DESTINATION "${CMAKE_INSTALL_DOCDIR}")
   endif()
 endforeach()
+install(FILES "${CMAKE_SOURCE_DIR}/README.md" DESTINATION "${CMAKE_INSTALL_DOCDIR}")
+
+include(cmake/package.cmake)

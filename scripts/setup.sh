@@ -18,6 +18,7 @@ DEB_PACKAGES=(
   libspdlog-dev libyaml-cpp-dev libgtest-dev libgmock-dev libcli11-dev libsystemd-dev
   libbenchmark-dev nlohmann-json3-dev zlib1g-dev
   can-utils iproute2 systemd
+  libjchart2d-java xvfb file unzip          # ndsid-lcm-spy's charts; tests/package (xvfb-run, dpkg-deb checks)
   python3 python3-venv python3-pip
 )
 

@@ -353,7 +353,9 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
     m.Finish();
   }
   c.state_dir = Resolve(base_dir, top.String("state_dir", c.state_dir));
-  c.report_dir = top.String("report_dir", c.report_dir);
+  // Like every path in the file, relative to the file's folder; absent, the default
+  // (out/report) stays relative to the working directory of the desk command.
+  if (top.Has("report_dir")) c.report_dir = Resolve(base_dir, top.String("report_dir"));
   c.log_level = top.String("log_level", c.log_level);
   static const char* kLevels[] = {"trace", "debug", "info", "warn", "error", "critical", "off"};
   if (std::none_of(std::begin(kLevels), std::end(kLevels), [&](const char* l) { return c.log_level == l; })) {

@@ -41,6 +41,20 @@ TEST(Config, ConvertsUnitsAndSignToSi) {
   EXPECT_DOUBLE_EQ(c.identification.params[0].initial, 1500.0);  // m from the data sheet
 }
 
+// Catches: a path in the config resolved against the working directory instead of the
+// config file's folder (report_dir was, so reports landed wherever the command ran).
+TEST(Config, ResolvesEveryPathRelativeToTheConfigFile) {
+  const Config c = ParseConfig(std::string(kMinimal) + "state_dir: ../state\nreport_dir: out/report\n", "/cars/x/car.yaml");
+  EXPECT_EQ(c.source.logs.at(0), "/cars/x/a.log");
+  EXPECT_EQ(c.dbc, "/cars/x/b.dbc");
+  EXPECT_EQ(c.state_dir, "/cars/state");
+  EXPECT_EQ(c.report_dir, "/cars/x/out/report");
+  const Config abs = ParseConfig(std::string(kMinimal) + "report_dir: /var/tmp/r\n", "/cars/x/car.yaml");
+  EXPECT_EQ(abs.report_dir, "/var/tmp/r");
+  // Absent, the documented default stays relative to the working directory.
+  EXPECT_EQ(ParseConfig(kMinimal, "/cars/x/car.yaml").report_dir, "out/report");
+}
+
 // Catches: a typo in a key silently ignored (the user thinks a setting is active).
 TEST(Config, RejectsUnknownKeyWithPathAndLine) {
   const std::string e = ErrorOf(std::string(kMinimal) + "gate: {min_sped_mps: 3}\n");

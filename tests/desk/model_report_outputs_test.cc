@@ -131,6 +131,18 @@ TEST(Diagnose, ApplyWritesLadderEffectsIntoConfigAndChangesNothingElse) {
   EXPECT_NE(ReadWholeFile((kOut / "diagnose_out.txt").string()).find("--apply: "), std::string::npos);
 }
 
+// Catches: `--apply` rewriting the config with another mode (it was 0600, which locked the
+// DynamicUser service out of /etc/ndsid/vehicle.yaml), or reports forced to 0600 whatever the
+// umask. The fixture runs diagnose on a 0640 config under umask 002.
+TEST(Diagnose, ApplyKeepsTheConfigModeAndReportsFollowTheUmask) {
+  const auto mode = [](const fs::path& p) { return fs::status(p).permissions() & fs::perms::mask; };
+  const std::string before = ReadWholeFile(NDSID_APP_PRISTINE), after = ReadWholeFile((kOut / "applied_vehicle.yaml").string());
+  ASSERT_NE(before, after) << "--apply changed nothing: the mode check would prove nothing";
+  EXPECT_EQ(mode(kOut / "applied_vehicle.yaml"), static_cast<fs::perms>(0640));
+  EXPECT_EQ(mode(kOut / "diagnose_out" / "diagnosis.json"), static_cast<fs::perms>(0664));
+  EXPECT_EQ(mode(kOut / "diagnose_out" / "diagnosis.md"), static_cast<fs::perms>(0664));
+}
+
 TEST(Diagnose, WritesMarkdownAndLadderPlot) {
   const std::string md = ReadWholeFile((kOut / "diagnose_out" / "diagnosis.md").string());
   EXPECT_NE(md.find("## Error ladder"), std::string::npos);

@@ -103,7 +103,6 @@ int RunSimulate(const SimulateOptions& o, CLI::App* cmd) {
   if (csv) files.emplace_back("signals_csv", "signals.csv");
   files.emplace_back("dbc", o.dbc_path);
   WriteFileAtomically(truth_path, sim::TruthYaml(cfg, drivers, summary, files));
-  fs::permissions(truth_path, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read, ec);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   const auto p = sim::BaseParams(cfg.vehicle);
