@@ -15,7 +15,7 @@
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/model/simulate.h"
 
-namespace ndsid::app {
+namespace ndsid::desk {
 namespace {
 namespace fs = std::filesystem;
 
@@ -262,4 +262,4 @@ TEST(Compare, HtmlReportIsOfflineAndLinksExistingPlots) {
 }
 
 }  // namespace
-}  // namespace ndsid::app
+}  // namespace ndsid::desk

@@ -12,7 +12,7 @@
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/model/simulate.h"
 
-namespace ndsid::app {
+namespace ndsid::desk {
 namespace {
 namespace fs = std::filesystem;
 
@@ -231,4 +231,4 @@ TEST(CompareCli, WritesReportWithoutPlotsAndSaysSoWhenPythonIsMissing) {
 }
 
 }  // namespace
-}  // namespace ndsid::app
+}  // namespace ndsid::desk
