@@ -22,7 +22,7 @@
 namespace ndsid::desk {
 namespace fs = std::filesystem;
 
-std::vector<std::string> ParseEffectList(const std::string& text) {
+std::vector<std::string> ParseEffectList(const std::string& text, const model::EffectLibrary& library) {
   std::vector<std::string> out;
   if (text.empty() || text == "none") return out;
   std::stringstream ss(text);
@@ -31,7 +31,7 @@ std::vector<std::string> ParseEffectList(const std::string& text) {
     item.erase(item.find_last_not_of(" \t") + 1);
     if (!item.empty()) out.push_back(item);
   }
-  model::ModelSpec::FromNames(out);  // throws ConfigError naming an unknown effect
+  model::ModelSpec::FromNames(out, library);  // throws ConfigError naming an unknown effect
   return out;
 }
 
@@ -45,7 +45,7 @@ std::unique_ptr<ReplayedData> ReplayForModelWork(const std::string& config_path,
                                                  const std::vector<std::string>& pipeline_effects) {
   auto d = std::make_unique<ReplayedData>();
   d->config = config::LoadConfig(config_path);
-  model::ModelSpec::FromNames(pipeline_effects);  // before the replay, not after it
+  model::ModelSpec::FromNames(pipeline_effects, model::EffectLibrary(d->config.model_formulas));  // before the replay
   d->config.model_effects = pipeline_effects;
   const std::vector<std::string> use = logs.empty() ? d->config.source.logs : logs;
   if (use.empty()) throw ConfigError("no log to replay: give --log FILE or source.logs in " + config_path);
@@ -112,7 +112,7 @@ FittedModel FitModel(const ReplayedData& data, const std::string& label, const s
     return m;
   }
   const identify::Identifier id(data.config.identification, data.config.vehicle.wheelbase_m,
-                                model::ModelSpec::FromNames(effects));
+                                model::ModelSpec::FromNames(effects, data.pipeline->library()));
   std::optional<model::Params<double>> warm;
   const auto& ss = data.window.steady_state;
   if (ss.valid) warm = id.WarmStart(ss.steer_ratio, ss.eg_rad_per_mps2);
@@ -240,7 +240,7 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
   for (const FittedModel& m : c.models) {
     if (!m.fit.valid) throw Error("the " + m.label + " model " + JoinEffects(m.effects) + " has no valid fit: " + m.fit.reason);
     identify::Identifier id(data.config.identification, data.config.vehicle.wheelbase_m,
-                            model::ModelSpec::FromNames(m.effects));
+                            model::ModelSpec::FromNames(m.effects, data.pipeline->library()));
     id.set_drive_loads(m.fit.drive_loads);  // load_change: each drive at its fitted load
     outs.push_back(identify::SimulateChunks(id, m.fit.AllValues(), all));
   }

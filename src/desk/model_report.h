@@ -29,7 +29,7 @@ struct ReplayedData {
 };
 
 // "a,b" -> {a, b}; "none" or "" -> {} (base model). Throws ConfigError for an unknown name.
-std::vector<std::string> ParseEffectList(const std::string& text);
+std::vector<std::string> ParseEffectList(const std::string& text, const model::EffectLibrary& library);
 std::string JoinEffects(const std::vector<std::string>& effects);  // "[a, b]"
 
 // Throws ConfigError for a missing log or an empty window. `pipeline_effects` is the model the

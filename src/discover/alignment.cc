@@ -122,7 +122,7 @@ RoleLatency SteeringLatency(const Identifier& id, const std::vector<double>& par
   std::vector<std::string> names;
   for (const auto& e : id.spec().effects()) names.push_back(e->info().name);
   names.push_back("steer_delay");
-  const Identifier joint(id.config(), id.wheelbase_m(), model::ModelSpec::FromNames(names));
+  const Identifier joint(id.config(), id.wheelbase_m(), model::ModelSpec::FromNames(names, id.spec().library()));
   std::vector<double> warm = Extend(id.spec(), params, joint.spec());
   for (int i = model::kNumParams; i < joint.spec().num_params(); ++i) {
     if (joint.spec().param_name(i) == "steer_delay_s") warm[static_cast<size_t>(i)] = std::clamp(out.latency_s, o.min_s, o.max_s);

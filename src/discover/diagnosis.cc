@@ -116,7 +116,7 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   d.model = spec.Describe();
   std::vector<std::string> candidates = options.candidates;
   const auto present = spec.effect_names();
-  if (candidates.empty()) candidates = model::BuiltinEffectNames();
+  if (candidates.empty()) candidates = spec.library().builtin_names();
   candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                   [&](const std::string& c) { return std::find(present.begin(), present.end(), c) != present.end(); }),
                    candidates.end());
@@ -124,7 +124,7 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   // fitted parameters' columns J and every candidate's sensitivity column at once.
   std::vector<std::string> all = present;
   all.insert(all.end(), candidates.begin(), candidates.end());
-  const model::ModelSpec big = model::ModelSpec::FromNames(all);
+  const model::ModelSpec big = model::ModelSpec::FromNames(all, spec.library());
   const std::vector<double> x = Extend(spec, params, big);
   const int np = big.num_params();
   std::vector<int> fitted, cand;  // columns of big: fitted free parameters, candidate parameters
@@ -309,11 +309,12 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
 }
 
 Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheelbase_m,
-                        const std::vector<std::string>& start_effects, const SegmentList& training_in,
+                        const std::vector<std::string>& start_effects, const model::EffectLibrary& library,
+                        const SegmentList& training_in,
                         const SegmentList& validation_in, const LadderOptions& options) {
   Ladder ladder;
   std::vector<std::string> effects = start_effects;
-  Identifier current(config, wheelbase_m, model::ModelSpec::FromNames(effects));
+  Identifier current(config, wheelbase_m, model::ModelSpec::FromNames(effects, library));
   IdentificationResult fit = current.Identify(training_in, validation_in, std::optional<std::vector<double>>{});
   current.set_drive_loads(fit.drive_loads);
   if (!fit.valid) {
@@ -358,7 +359,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       ++tried;
       std::vector<std::string> trial = effects;
       trial.push_back(c.effect);
-      Identifier next(config, wheelbase_m, model::ModelSpec::FromNames(trial));
+      Identifier next(config, wheelbase_m, model::ModelSpec::FromNames(trial, library));
       next.set_drive_loads(fit.drive_loads);  // load_change: start from the current ratios
       std::vector<double> warm = Extend(current.spec(), fit.AllValues(), next.spec());
       IdentificationResult f2 = next.Identify(training, validation, std::optional<std::vector<double>>(warm));

@@ -6,8 +6,8 @@
 
 namespace ndsid::model {
 
-ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names) {
-  const std::vector<std::string> order = BuiltinEffectNames();
+ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names, const EffectLibrary& library) {
+  const std::vector<std::string> order = library.names();
   for (size_t i = 0; i < names.size(); ++i) {
     if (std::find(names.begin(), names.begin() + static_cast<long>(i), names[i]) != names.begin() + static_cast<long>(i)) {
       throw ConfigError("effect '" + names[i] + "' listed twice");
@@ -18,13 +18,14 @@ ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names) {
     return std::find(order.begin(), order.end(), a) < std::find(order.begin(), order.end(), b);
   });
   ModelSpec spec;
+  spec.library_ = std::make_shared<const EffectLibrary>(library);
   int p = kNumParams, s = 0;
   for (const std::string& name : sorted) {
     if (name == kLoadChange) {
       spec.per_drive_load_ = true;
       continue;
     }
-    auto effect = MakeEffect(name);
+    auto effect = library.Get(name);
     spec.param_offsets_.push_back(p);
     spec.state_offsets_.push_back(s);
     p += static_cast<int>(effect->info().params.size());

@@ -16,8 +16,8 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
       extractor_(config, db),
       gate_(config.gate, 1.0 / config.sync.rate_hz),
       accumulator_(config, config.sync.rate_hz),
-      identifier_(config.identification, config.vehicle.wheelbase_m,
-                  (model::RegisterFormulaEffects(config.model_formulas), model::ModelSpec::FromNames(config.model_effects))),
+      library_(config.model_formulas),
+      identifier_(config.identification, config.vehicle.wheelbase_m, model::ModelSpec::FromNames(config.model_effects, library_)),
       adequacy_(config.adequacy) {
   samples_.reserve(1024);
   // model.priors must name a parameter of the base model, of a library effect or of a formula.
@@ -25,10 +25,8 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
   std::vector<std::string> known;
   const model::ModelSpec base;
   for (int i = 0; i < base.num_params(); ++i) known.push_back(base.param_name(i));
-  std::vector<std::string> effects = model::BuiltinEffectNames();
-  for (const auto& f : config.model_formulas) effects.push_back(f.name);
-  for (const auto& e : effects) {
-    const model::ModelSpec one = model::ModelSpec::FromNames({e});
+  for (const auto& e : library_.names()) {
+    const model::ModelSpec one = model::ModelSpec::FromNames({e}, library_);
     for (int i = model::kNumParams; i < one.num_params(); ++i) known.push_back(one.param_name(i));
   }
   for (const config::ParameterPrior& pr : config.identification.priors) {

@@ -80,8 +80,7 @@ TEST(FormulaEffect, CubicGainStatedInYamlIsRecovered) {
       a_y_meas: "a_y + k3*a_y^3"
       parameters: {k3: {min: -0.05, max: 0.05, unit: "s^4/m^2"}}
 )", "t.yaml");
-  model::RegisterFormulaEffects(c.model_formulas);
-  const model::ModelSpec spec = model::ModelSpec::FromNames(c.model_effects);
+  const model::ModelSpec spec = model::ModelSpec::FromNames(c.model_effects, model::EffectLibrary(c.model_formulas));
   const std::vector<double> truth = {1900, 2700, 75000, 120000, 1.15, 14.8, 0.01};
   const auto train = testing::SyntheticSegmentsWithEffects(spec, truth, 20, 60, 0.05, 21);
   const auto valid = testing::SyntheticSegmentsWithEffects(spec, truth, 6, 60, 0.05, 22);

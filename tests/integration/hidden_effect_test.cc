@@ -37,7 +37,7 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   const auto& cfg = run.config->identification;
   discover::LadderOptions options;
   options.align = c.align;
-  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"}, model::EffectLibrary::Builtin(),
                                                              run.window.training, run.window.validation, options);
   ASSERT_FALSE(ladder.rungs.empty());
   ASSERT_FALSE(ladder.diagnoses.empty());
@@ -212,7 +212,7 @@ TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
   const SimulatedRun run = SimulateAndReplay("lever", 47, 1.5, {"lever_arm_m=0.8"});
   const auto& cfg = run.config->identification;
   {
-    const discover::Ladder aligned = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+    const discover::Ladder aligned = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"}, model::EffectLibrary::Builtin(),
                                                                 run.window.training, run.window.validation);
     const auto& fit = aligned.rungs.back().fit;
     for (const auto& l : aligned.alignment) {
@@ -226,7 +226,7 @@ TEST(HiddenEffectLong, LeverArmFoundWithinTheLagGroup) {
   }
   discover::LadderOptions no_align;
   no_align.align = false;
-  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"}, model::EffectLibrary::Builtin(),
                                                              run.window.training, run.window.validation, no_align);
   ASSERT_FALSE(ladder.diagnoses.empty());
   PrintDiagnosis(ladder.diagnoses.front());
@@ -333,7 +333,7 @@ TEST(HiddenEffectLong, TyreSaturationFoundAddedAndEgBiasRemoved) {
 TEST(HiddenEffectLong, RoadCrossfallFoundFromTheBareModel) {
   const SimulatedRun run = SimulateAndReplay("crossfall", 7, 2.0, {}, {});
   const auto& cfg = run.config->identification;
-  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {},
+  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {}, model::EffectLibrary::Builtin(),
                                                              run.window.training, run.window.validation);
   ASSERT_FALSE(ladder.diagnoses.empty());
   PrintDiagnosis(ladder.diagnoses.front());
@@ -385,7 +385,7 @@ TEST(HiddenEffectLong, LoadChangeBetweenDrivesFoundAndEgAtTheReferenceLoad) {
   const auto& cfg = run.config->identification;
   const double m0 = run.truth_base[model::kMass];
   auto true_mass = [&](int64_t drive) { return m0 + tweaks.mass_schedule_kg[static_cast<size_t>(drive) % 4]; };
-  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"},
+  const discover::Ladder ladder = discover::ClimbErrorLadder(cfg, run.config->vehicle.wheelbase_m, {"road_bank"}, model::EffectLibrary::Builtin(),
                                                              run.window.training, run.window.validation);
   ASSERT_FALSE(ladder.diagnoses.empty());
   PrintDiagnosis(ladder.diagnoses.front());

@@ -69,9 +69,9 @@ struct Stretch {
   InputSeries series() const { return {&data[0], &data[1], 2, n, 0.02}; }
 };
 
-std::vector<double> SimulateWith(const std::vector<std::string>& effects, double eta) {
+std::vector<double> SimulateWith(const std::vector<std::string>& effects, double eta, const EffectLibrary& library) {
   const Stretch s;
-  const ModelSpec spec = ModelSpec::FromNames(effects);
+  const ModelSpec spec = ModelSpec::FromNames(effects, library);
   std::vector<double> p = kBase;
   p.push_back(eta);
   std::vector<double> y(s.n);
@@ -86,10 +86,11 @@ TEST(FormulaEffect, RestatedBuiltinsGiveTheSameModel) {
     my_lever: {a_y_meas: "a_y + xs*r_dot", parameters: {xs: {min: -2, max: 2, unit: m}}}
     my_bank: {beta_dot: "gy/v", parameters: {gy: {min: -1, max: 1}}}
 )");
-  RegisterFormulaEffects(c.model_formulas);
+  const EffectLibrary library(c.model_formulas);
   const auto pairs = {std::pair{"my_bias", "accel_bias"}, std::pair{"my_lever", "lever_arm"}, std::pair{"my_bank", "crossfall"}};
   for (const auto& [formula, builtin] : pairs) {
-    const auto a = SimulateWith({formula}, 0.3), b = SimulateWith({builtin}, 0.3), base = SimulateWith({formula}, 0.0);
+    const auto a = SimulateWith({formula}, 0.3, library), b = SimulateWith({builtin}, 0.3, library),
+               base = SimulateWith({formula}, 0.0, library);
     double diff = 0, effect = 0;
     for (size_t k = 0; k < a.size(); ++k) {
       diff = std::max(diff, std::abs(a[k] - b[k]));
@@ -104,26 +105,26 @@ TEST(FormulaEffect, RestatedBuiltinsGiveTheSameModel) {
 TEST(FormulaEffect, AutodiffMatchesNumericDerivative) {
   const config::Config c = WithFormulas(R"(    cubic: {a_y_meas: "a_y + k3*a_y^3", parameters: {k3: {min: -0.1, max: 0.1}}}
 )");
-  RegisterFormulaEffects(c.model_formulas);
+  const EffectLibrary library(c.model_formulas);
   const Stretch s;
-  const ModelSpec spec = ModelSpec::FromNames({"cubic"});
+  const ModelSpec spec = ModelSpec::FromNames({"cubic"}, library);
   std::vector<Jet> pj;
   for (double v : kBase) pj.push_back(Jet(v, static_cast<int>(pj.size())));
   pj.push_back(Jet(0.01, 6));
   std::vector<Jet> y(s.n);
   SimulateModel(spec, pj.data(), kL, s.series(), y.data());
-  const auto yp = SimulateWith({"cubic"}, 0.01 + 1e-6), ym = SimulateWith({"cubic"}, 0.01 - 1e-6);
+  const auto yp = SimulateWith({"cubic"}, 0.01 + 1e-6, library), ym = SimulateWith({"cubic"}, 0.01 - 1e-6, library);
   for (size_t k = 0; k < s.n; k += 13) EXPECT_NEAR(y[k].v[6], (yp[k] - ym[k]) / 2e-6, 1e-4 * (1 + std::abs(y[k].v[6])));
 }
 
 TEST(FormulaEffect, RejectsFormulasThatDoNotNestTheBaseModel) {
   const config::Config c = WithFormulas(R"(    shifted: {a_y_meas: "a_y + 0.1 + k", parameters: {k: {min: -1, max: 1}}}
 )");
-  EXPECT_THROW(RegisterFormulaEffects(c.model_formulas), ConfigError);
+  EXPECT_THROW(EffectLibrary{c.model_formulas}, ConfigError);
   const config::Config d = WithFormulas(R"(    typo: {a_y_meas: "a_y + k*ay", parameters: {k: {min: -1, max: 1}}}
 )");
   try {
-    RegisterFormulaEffects(d.model_formulas);
+    const EffectLibrary library(d.model_formulas);
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("model.formulas.typo"), std::string::npos) << e.what();
@@ -137,6 +138,33 @@ TEST(FormulaEffect, ConfigRejectsMissingTargetWithLine) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("car.yaml:11"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("needs one of a_y_meas"), std::string::npos) << e.what();
+  }
+}
+
+// The library is a value: formulas exist only in the library built from their configuration,
+// so two configurations never see each other's effects (the old global registry leaked them).
+TEST(EffectLibrary, FormulasBelongToTheirConfigurationOnly) {
+  const config::Config c = WithFormulas(R"(    cubic: {a_y_meas: "a_y + k3*a_y^3", parameters: {k3: {min: -0.1, max: 0.1}}}
+)");
+  const EffectLibrary with(c.model_formulas);
+  EXPECT_NE(with.Find("cubic"), nullptr);
+  EXPECT_EQ(EffectLibrary::Builtin().Find("cubic"), nullptr);
+  EXPECT_THROW(ModelSpec::FromNames({"cubic"}), ConfigError);
+  const ModelSpec spec = ModelSpec::FromNames({"roll", "cubic"}, with);
+  EXPECT_EQ(spec.effect_names(), (std::vector<std::string>{"roll", "cubic"}));  // built-ins first
+  EXPECT_NE(spec.library().Find("cubic"), nullptr);  // discovery extends from the same set
+  EXPECT_EQ(with.formula_names(), std::vector<std::string>{"cubic"});
+  EXPECT_EQ(with.builtin_names(), BuiltinEffectNames());
+}
+
+TEST(EffectLibrary, RejectsAFormulaNamedLikeABuiltinOrListedTwice) {
+  const config::Config c = WithFormulas(R"(    roll: {a_y_meas: "a_y + k*a_y", parameters: {k: {min: -1, max: 1}}}
+)");
+  try {
+    const EffectLibrary library(c.model_formulas);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("model.formulas.roll: the name of a built-in effect"), std::string::npos) << e.what();
   }
 }
 

@@ -11,6 +11,7 @@
 
 #include "ndsid/discover/alignment.h"
 #include "ndsid/identify/identifier.h"
+#include "ndsid/model/effect_library.h"
 
 namespace ndsid::discover {
 
@@ -88,9 +89,10 @@ struct Ladder {
 
 // Step 0 (align the roles in time), then base -> + first effect -> + second ...: diagnose,
 // refit with the best candidates, keep an effect when the held-out RMSE falls and BIC agrees;
-// stop when nothing helps.
+// stop when nothing helps. Models are built from `library` (the configuration's effects).
 Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheelbase_m,
-                        const std::vector<std::string>& start_effects, const identify::SegmentList& training,
+                        const std::vector<std::string>& start_effects, const model::EffectLibrary& library,
+                        const identify::SegmentList& training,
                         const identify::SegmentList& validation, const LadderOptions& options = {});
 
 }  // namespace ndsid::discover

@@ -213,13 +213,8 @@ class EffectImpl : public Effect {
   EffectInfo info_;
 };
 
-// All built-in effects (src/model/effects/; registration in builtin_effects.cc).
+// All built-in effects (src/model/effects/; the table in builtin_effects.cc). Models are built
+// from an EffectLibrary (effect_library.h): the built-ins plus a configuration's formulas.
 std::vector<std::string> BuiltinEffectNames();
-// Effects stated as formulas in the configuration (model.formulas) become available to
-// MakeEffect under their names. Throws ConfigError naming the formula on a parse error, a
-// built-in's name, or a formula that does not reduce to the base model at its neutral values.
-void RegisterFormulaEffects(const std::vector<config::FormulaSpec>& specs);
-// Throws ndsid::ConfigError naming the effect and listing the known ones.
-std::shared_ptr<const Effect> MakeEffect(const std::string& name);
 
 }  // namespace ndsid::model

@@ -8,15 +8,20 @@
 #include <vector>
 
 #include "ndsid/model/effect.h"
+#include "ndsid/model/effect_library.h"
 
 namespace ndsid::model {
 
 class ModelSpec {
  public:
   ModelSpec() = default;
-  // Throws ConfigError for an unknown or repeated effect name. Effects are applied in the
-  // library's order (inputs -> tyres -> measurement), whatever the order of `names`.
-  static ModelSpec FromNames(const std::vector<std::string>& names);
+  // Throws ConfigError for an effect `library` does not have or a repeated name. Effects are
+  // applied in the library's order (inputs -> tyres -> measurement, then formulas), whatever
+  // the order of `names`.
+  static ModelSpec FromNames(const std::vector<std::string>& names,
+                             const EffectLibrary& library = EffectLibrary::Builtin());
+  // The library the model was built from (discovery extends the model from the same set).
+  const EffectLibrary& library() const { return *library_; }
 
   const std::vector<std::shared_ptr<const Effect>>& effects() const { return effects_; }
   std::vector<std::string> effect_names() const;
@@ -40,6 +45,7 @@ class ModelSpec {
   bool per_drive_load() const { return per_drive_load_; }
 
  private:
+  std::shared_ptr<const EffectLibrary> library_ = std::make_shared<const EffectLibrary>(EffectLibrary::Builtin());
   bool per_drive_load_ = false;
   std::vector<std::shared_ptr<const Effect>> effects_;
   std::vector<int> param_offsets_, state_offsets_;

@@ -16,6 +16,7 @@
 #include "ndsid/dbc/database.h"
 #include "ndsid/gate/gate.h"
 #include "ndsid/identify/identifier.h"
+#include "ndsid/model/effect_library.h"
 #include "ndsid/stats/accumulator.h"
 #include "ndsid/sync/role_extractor.h"
 #include "ndsid/sync/signal_sync.h"
@@ -70,6 +71,9 @@ class Pipeline {
   const std::optional<Estimate>& last_estimate() const { return last_; }
   const std::vector<Estimate>& history() const { return history_; }
   const identify::Identifier& identifier() const { return identifier_; }
+  // The configuration's effects (built-ins + model.formulas): every model built for this
+  // configuration (compare, diagnose, the monitor) comes from it.
+  const model::EffectLibrary& library() const { return library_; }
   const gate::Gate& gate() const { return gate_; }
   const sync::SignalSync& sync() const { return sync_; }
   const sync::RoleExtractor& extractor() const { return extractor_; }
@@ -106,6 +110,7 @@ class Pipeline {
   sync::RoleExtractor extractor_;
   gate::Gate gate_;
   stats::Accumulator accumulator_;
+  model::EffectLibrary library_;
   identify::Identifier identifier_;
   adequacy::Tracker adequacy_;
   std::vector<sync::Sample> samples_;

@@ -10,6 +10,7 @@
 #include "command_registry.h"
 #include "fit_json.h"
 #include "model_report.h"
+#include "ndsid/model/effect_library.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/model/single_track.h"
 
@@ -168,9 +169,12 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
 }
 
 int Run(const CompareArgs& a) {
-  // Names first: a typo fails in a second, not after the replay.
-  std::vector<std::string> effects = a.effects.empty() ? config::LoadConfig(a.config).model_effects : ParseEffectList(a.effects);
-  const std::vector<std::string> baseline = ParseEffectList(a.baseline);
+  // The configuration's effects (built-ins + its formulas): names are checked against them
+  // before any work.
+  const config::Config cfg = config::LoadConfig(a.config);
+  const model::EffectLibrary library(cfg.model_formulas);
+  std::vector<std::string> effects = a.effects.empty() ? cfg.model_effects : ParseEffectList(a.effects, library);
+  const std::vector<std::string> baseline = ParseEffectList(a.baseline, library);
   const std::vector<int64_t> hold_out = ParseDriveList(a.hold_out);
   std::unique_ptr<ReplayedData> data = ReplayForModelWork(a.config, a.logs, effects);
   HoldOutDrives(*data, hold_out);

@@ -11,6 +11,7 @@
 #include "command_registry.h"
 #include "config_edit.h"
 #include "model_report.h"
+#include "ndsid/model/effect_library.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/discover/diagnosis.h"
 #include "ndsid/model/model_spec.h"
@@ -65,7 +66,7 @@ std::string Fmt(const char* fmt, double a, double b = 0, double c = 0) {
 }
 
 // The added effect's parameters of a rung as "name = v ± se unit".
-std::string AddedParams(const discover::Rung& r) {
+std::string AddedParams(const discover::Rung& r, const model::EffectLibrary& library) {
   if (r.added.empty()) return "";
   if (r.added == model::ModelSpec::kLoadChange) {  // per-drive ratios, not in the parameter vector
     std::string s;
@@ -75,7 +76,7 @@ std::string AddedParams(const discover::Rung& r) {
     }
     return s;
   }
-  const model::ModelSpec spec = model::ModelSpec::FromNames({r.added});
+  const model::ModelSpec spec = model::ModelSpec::FromNames({r.added}, library);
   std::string s;
   for (int i = model::kNumParams; i < spec.num_params(); ++i) {
     for (const auto& p : r.fit.effect_params) {
@@ -86,8 +87,12 @@ std::string AddedParams(const discover::Rung& r) {
 }
 
 int Run(const DiagnoseArgs& a) {
-  const std::vector<std::string> start = a.effects.empty() ? config::LoadConfig(a.config).model_effects : ParseEffectList(a.effects);
-  const std::vector<std::string> candidates = ParseEffectList(a.candidates);
+  // The configuration's effects (built-ins + its formulas): names are checked against them
+  // before any work.
+  const config::Config cfg = config::LoadConfig(a.config);
+  const model::EffectLibrary library(cfg.model_formulas);
+  const std::vector<std::string> start = a.effects.empty() ? cfg.model_effects : ParseEffectList(a.effects, library);
+  const std::vector<std::string> candidates = ParseEffectList(a.candidates, library);
   if (a.max_steps < 1) throw ConfigError("--max-steps must be >= 1");
   if (!(a.z_threshold > 0)) throw ConfigError("--z-threshold must be > 0");
   const std::vector<int64_t> hold_out = ParseDriveList(a.hold_out);
@@ -99,7 +104,8 @@ int Run(const DiagnoseArgs& a) {
   opt.diagnosis.z_threshold = a.z_threshold;
   opt.align = !a.no_align;
   const discover::Ladder ladder = discover::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
-                                                             start, data->window.training, data->window.validation, opt);
+                                                             start, data->pipeline->library(), data->window.training,
+                                                             data->window.validation, opt);
   std::vector<std::string> final_effects = start;
   for (const auto& r : ladder.rungs)
     if (!r.added.empty()) final_effects.push_back(r.added);
@@ -191,7 +197,7 @@ int Run(const DiagnoseArgs& a) {
   md += "\n## Error ladder\n\nStop: " + ladder.stop_reason + "\n\n| rung | model | RMSE train | RMSE held-out | EG ± σ [deg/g] | added parameter ± σ | ΔBIC |\n|---|---|---|---|---|---|---|\n";
   for (size_t i = 0; i < ladder.rungs.size(); ++i) {
     const auto& r = ladder.rungs[i];
-    const std::string added = AddedParams(r);
+    const std::string added = AddedParams(r, library);
     std::printf("%-4zu %-42s %10.4f %10.4f %9.3f ± %-6.3f %-40s %8.1f\n", i, r.model.c_str(), r.fit.rmse_train_mps2,
                 r.fit.rmse_validation_mps2, r.fit.eg_deg_per_g, r.fit.eg_se_deg_per_g, added.c_str(), r.delta_bic);
     md += "| " + std::to_string(i) + " | " + r.model + " | " + Fmt("%.4f", r.fit.rmse_train_mps2) + " | " +

@@ -8,8 +8,12 @@ namespace {
 class AccelBias final : public EffectImpl<AccelBias> {
  public:
   AccelBias()
-      : EffectImpl({"accel_bias", "a_meas = a_y + b", "constant offset, also at standstill",
-                    {{"accel_bias_mps2", "m/s^2", -0.5, 0.5, 0.0, 0.0, 0.1}}, 0}) {}
+      : EffectImpl({.name = "accel_bias",
+                    .description = "a_meas = a_y + b",
+                    .signature = "constant offset, also at standstill",
+                    .params = {{.name = "accel_bias_mps2", .unit = "m/s^2",
+                                .lower = -0.5, .upper = 0.5, .initial = 0.0, .neutral = 0.0, .typical = 0.1}},
+                    .num_states = 0}) {}
   template <class T>
   T MeasureT(const T* eta, const MeasurementContext<T>&, const T*) const {
     return eta[0];

@@ -1,4 +1,4 @@
-// The registry of built-in effects. The table's order is the order effects are applied in:
+// The table of built-in effects. The table's order is the order effects are applied in:
 // inputs, then dynamics (slip lag before tyre saturation), then measurement terms.
 #include "builtin_effects.h"
 
@@ -6,7 +6,6 @@
 #include <utility>
 #include <vector>
 
-#include "ndsid/common/error.h"
 
 namespace ndsid::model {
 namespace {
@@ -37,14 +36,11 @@ std::vector<std::string> BuiltinEffectNames() {
   return names;
 }
 
-std::shared_ptr<const Effect> MakeEffect(const std::string& name) {
+std::shared_ptr<const Effect> MakeBuiltinEffect(const std::string& name) {
   for (const auto& [n, f] : Table()) {
     if (n == name) return f();
   }
-  if (auto formula = FindRegisteredFormula(name)) return formula;
-  std::string known;
-  for (const auto& [n, f] : Table()) known += (known.empty() ? "" : ", ") + n;
-  throw ConfigError("unknown effect '" + name + "'; known effects: " + known);
+  return nullptr;
 }
 
 }  // namespace ndsid::model

@@ -4,6 +4,7 @@
 
 #include <memory>
 
+#include "ndsid/config/config.h"
 #include "ndsid/model/effect.h"
 
 namespace ndsid::model {
@@ -19,6 +20,9 @@ std::shared_ptr<const Effect> MakeTyreSaturation();
 std::shared_ptr<const Effect> MakeAccelBias();
 std::shared_ptr<const Effect> MakeLeverArm();
 std::shared_ptr<const Effect> MakeRoll();
-std::shared_ptr<const Effect> FindRegisteredFormula(const std::string& name);  // nullptr if none
+// The built-in effect of that name, nullptr if none.
+std::shared_ptr<const Effect> MakeBuiltinEffect(const std::string& name);
+// An effect stated as a formula (model.formulas); throws ConfigError (see EffectLibrary).
+std::shared_ptr<const Effect> MakeFormulaEffect(const config::FormulaSpec& spec);
 
 }  // namespace ndsid::model

@@ -9,9 +9,12 @@ namespace {
 class Crossfall final : public EffectImpl<Crossfall> {
  public:
   Crossfall()
-      : EffectImpl({"crossfall", "beta' += g_y / v (gravity along the banked road)",
-                    "even in a_y: -g_y l/(l + EG v^2); standstill offset",
-                    {{"crossfall_mps2", "m/s^2", -0.6, 0.6, 0.0, 0.0, 0.2}}, 0}) {}
+      : EffectImpl({.name = "crossfall",
+                    .description = "beta' += g_y / v (gravity along the banked road)",
+                    .signature = "even in a_y: -g_y l/(l + EG v^2); standstill offset",
+                    .params = {{.name = "crossfall_mps2", .unit = "m/s^2",
+                                .lower = -0.6, .upper = 0.6, .initial = 0.0, .neutral = 0.0, .typical = 0.2}},
+                    .num_states = 0}) {}
   template <class T>
   void ForcesT(const T* eta, const Params<T>&, double, const AxleSlip<T>&, const State<T>&, const ModelInputs<T>&,
                const T*, ForceTerms<T>& f) const {

@@ -3,8 +3,6 @@
 // effects' templates, so Ceres differentiates it and the diagnosis can score it.
 //   a_y_meas: the measured a_y as a function of a_y, r, r_dot, v and the parameters
 //   beta_dot / r_dot: a term added to beta' / r', over beta, r, v, d_sw, delta and the parameters
-#include <map>
-#include <mutex>
 
 #include "builtin_effects.h"
 #include "ndsid/model/expression.h"
@@ -61,15 +59,6 @@ class FormulaEffect final : public EffectImpl<FormulaEffect> {
   Expression expr_;
 };
 
-std::mutex& RegistryMutex() {
-  static std::mutex m;
-  return m;
-}
-std::map<std::string, std::shared_ptr<const Effect>>& Registry() {
-  static std::map<std::string, std::shared_ptr<const Effect>> r;
-  return r;
-}
-
 }  // namespace
 
 std::shared_ptr<const Effect> MakeFormulaEffect(const config::FormulaSpec& spec) {
@@ -81,7 +70,13 @@ std::shared_ptr<const Effect> MakeFormulaEffect(const config::FormulaSpec& spec)
   info.description = spec.target + " = " + spec.expression + " (formula from the configuration)";
   info.signature = "user hypothesis";
   for (const auto& p : spec.params) {
-    info.params.push_back({p.name, p.unit, p.lower, p.upper, p.initial, p.neutral, 0.5 * (p.upper - p.lower)});
+    info.params.push_back({.name = p.name,
+                           .unit = p.unit,
+                           .lower = p.lower,
+                           .upper = p.upper,
+                           .initial = p.initial,
+                           .neutral = p.neutral,
+                           .typical = 0.5 * (p.upper - p.lower)});
   }
   auto effect = std::make_shared<FormulaEffect>(spec, std::move(info));
   // The base model must nest at the neutral values: check the term vanishes at a test point.
@@ -97,22 +92,6 @@ std::shared_ptr<const Effect> MakeFormulaEffect(const config::FormulaSpec& spec)
                       "(a_y_meas must equal a_y, beta_dot/r_dot terms must vanish)");
   }
   return effect;
-}
-
-void RegisterFormulaEffects(const std::vector<config::FormulaSpec>& specs) {
-  std::lock_guard lock(RegistryMutex());
-  for (const auto& s : specs) {
-    for (const auto& b : BuiltinEffectNames()) {
-      if (b == s.name) throw ConfigError("model.formulas." + s.name + ": the name of a built-in effect");
-    }
-    Registry()[s.name] = MakeFormulaEffect(s);
-  }
-}
-
-std::shared_ptr<const Effect> FindRegisteredFormula(const std::string& name) {
-  std::lock_guard lock(RegistryMutex());
-  const auto it = Registry().find(name);
-  return it == Registry().end() ? nullptr : it->second;
 }
 
 }  // namespace ndsid::model

@@ -8,8 +8,12 @@ namespace {
 class LeverArm final : public EffectImpl<LeverArm> {
  public:
   LeverArm()
-      : EffectImpl({"lever_arm", "a_meas = a_y + x_s r'", "correlates with yaw acceleration, zero in steady state",
-                    {{"lever_arm_m", "m", -2.0, 2.0, 0.0, 0.0, 0.8}}, 0}) {}
+      : EffectImpl({.name = "lever_arm",
+                    .description = "a_meas = a_y + x_s r'",
+                    .signature = "correlates with yaw acceleration, zero in steady state",
+                    .params = {{.name = "lever_arm_m", .unit = "m",
+                                .lower = -2.0, .upper = 2.0, .initial = 0.0, .neutral = 0.0, .typical = 0.8}},
+                    .num_states = 0}) {}
   template <class T>
   T MeasureT(const T* eta, const MeasurementContext<T>& m, const T*) const {
     return eta[0] * m.yaw_accel;

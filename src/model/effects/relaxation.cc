@@ -13,9 +13,12 @@ namespace {
 class Relaxation final : public EffectImpl<Relaxation> {
  public:
   Relaxation()
-      : EffectImpl({"relaxation", "slip lag tau = sigma / v per axle (first-order)",
-                    "correlates with steering rate, stronger at low speed",
-                    {{"relaxation_length_m", "m", 0.001, 3.0, 0.3, 0.001, 0.6}}, 2}) {}
+      : EffectImpl({.name = "relaxation",
+                    .description = "slip lag tau = sigma / v per axle (first-order)",
+                    .signature = "correlates with steering rate, stronger at low speed",
+                    .params = {{.name = "relaxation_length_m", .unit = "m",
+                                .lower = 0.001, .upper = 3.0, .initial = 0.3, .neutral = 0.001, .typical = 0.6}},
+                    .num_states = 2}) {}
   template <class T>
   void ForcesT(const T*, const Params<T>& p, double, const AxleSlip<T>& slip, const State<T>&, const ModelInputs<T>&,
                const T* st, ForceTerms<T>& f) const {

@@ -27,10 +27,12 @@ constexpr double kMinEg_radpmps2 = 1e-3;  // gain floor: a near-neutral car hide
 class RoadBank final : public EffectImpl<RoadBank> {
  public:
   RoadBank()
-      : EffectImpl({"road_bank",
-                    "beta' += k b / v, b' = (r_meas - r) / (tau_o G(v)): road bank tracked through the yaw rate",
-                    "low-frequency, per road; steering on straights without lateral acceleration",
-                    {{"road_bank_gain", "-", 0.0, 5.0, 1.0, 0.0, 1.0}}, 1}) {}
+      : EffectImpl({.name = "road_bank",
+                    .description = "beta' += k b / v, b' = (r_meas - r) / (tau_o G(v)): road bank tracked through the yaw rate",
+                    .signature = "low-frequency, per road; steering on straights without lateral acceleration",
+                    .params = {{.name = "road_bank_gain", .unit = "-",
+                                .lower = 0.0, .upper = 5.0, .initial = 1.0, .neutral = 0.0, .typical = 1.0}},
+                    .num_states = 1}) {}
   template <class T>
   void ForcesT(const T* eta, const Params<T>&, double, const AxleSlip<T>&, const State<T>&, const ModelInputs<T>&,
                const T* states, ForceTerms<T>& f) const {

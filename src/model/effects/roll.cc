@@ -16,9 +16,12 @@ constexpr double kRollZeta = 0.5;
 class Roll final : public EffectImpl<Roll> {
  public:
   Roll()
-      : EffectImpl({"roll", "a_meas = a_y + g phi, phi'' = w^2 (k_phi a_y - phi) - 2 zeta w phi' (1.5 Hz, zeta 0.5)",
-                    "proportional to a_y, lagging; confounded with is/EG in steady state",
-                    {{"roll_gradient_rad_per_mps2", "rad/(m/s^2)", 0.0, 0.03, 0.0, 0.0, 0.0089}}, 2}) {}
+      : EffectImpl({.name = "roll",
+                    .description = "a_meas = a_y + g phi, phi'' = w^2 (k_phi a_y - phi) - 2 zeta w phi' (1.5 Hz, zeta 0.5)",
+                    .signature = "proportional to a_y, lagging; confounded with is/EG in steady state",
+                    .params = {{.name = "roll_gradient_rad_per_mps2", .unit = "rad/(m/s^2)",
+                                .lower = 0.0, .upper = 0.03, .initial = 0.0, .neutral = 0.0, .typical = 0.0089}},
+                    .num_states = 2}) {}
   template <class T>
   T MeasureT(const T*, const MeasurementContext<T>&, const T* st) const {
     return T(kGravity_mps2) * st[0];

@@ -8,8 +8,12 @@ namespace {
 class SpeedScale final : public EffectImpl<SpeedScale> {
  public:
   SpeedScale()
-      : EffectImpl({"speed_scale", "v_true = v_meas / (1 + eps)", "odd in a_y, ~ -2 eps a_y l/(l + EG v^2)",
-                    {{"speed_scale", "-", -0.08, 0.08, 0.0, 0.0, 0.03}}, 0}) {}
+      : EffectImpl({.name = "speed_scale",
+                    .description = "v_true = v_meas / (1 + eps)",
+                    .signature = "odd in a_y, ~ -2 eps a_y l/(l + EG v^2)",
+                    .params = {{.name = "speed_scale", .unit = "-",
+                                .lower = -0.08, .upper = 0.08, .initial = 0.0, .neutral = 0.0, .typical = 0.03}},
+                    .num_states = 0}) {}
   template <class T>
   void InputsT(const T* eta, const InputSeries&, size_t, ModelInputs<T>& u) const {
     u.speed_mps /= (T(1.0) + eta[0]);

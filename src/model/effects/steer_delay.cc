@@ -10,8 +10,12 @@ namespace {
 class SteerDelay final : public EffectImpl<SteerDelay> {
  public:
   SteerDelay()
-      : EffectImpl({"steer_delay", "d_sw,true(t) = d_sw,meas(t + dt)", "correlates with steering rate at all speeds",
-                    {{"steer_delay_s", "s", -0.1, 0.3, 0.0, 0.0, 0.08}}, 0}) {}
+      : EffectImpl({.name = "steer_delay",
+                    .description = "d_sw,true(t) = d_sw,meas(t + dt)",
+                    .signature = "correlates with steering rate at all speeds",
+                    .params = {{.name = "steer_delay_s", .unit = "s",
+                                .lower = -0.1, .upper = 0.3, .initial = 0.0, .neutral = 0.0, .typical = 0.08}},
+                    .num_states = 0}) {}
   template <class T>
   void InputsT(const T* eta, const InputSeries& s, size_t k, ModelInputs<T>& u) const {
     // Keep the speed as is; shift only the steering (fractional sample index). Added as the

@@ -11,9 +11,12 @@ namespace {
 class Superelevation final : public EffectImpl<Superelevation> {
  public:
   Superelevation()
-      : EffectImpl({"superelevation", "beta' += e g tanh(r / 0.02) / v (bank into the curve)",
-                    "odd in a_y at low a_y, saturating: biases EG", {{"superelevation", "-", 0.0, 0.1, 0.0, 0.0, 0.04}},
-                    0}) {}
+      : EffectImpl({.name = "superelevation",
+                    .description = "beta' += e g tanh(r / 0.02) / v (bank into the curve)",
+                    .signature = "odd in a_y at low a_y, saturating: biases EG",
+                    .params = {{.name = "superelevation", .unit = "-",
+                                .lower = 0.0, .upper = 0.1, .initial = 0.0, .neutral = 0.0, .typical = 0.04}},
+                    .num_states = 0}) {}
   template <class T>
   void ForcesT(const T* eta, const Params<T>&, double, const AxleSlip<T>&, const State<T>& x, const ModelInputs<T>&,
                const T*, ForceTerms<T>& f) const {

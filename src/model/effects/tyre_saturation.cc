@@ -9,8 +9,12 @@ namespace {
 class TyreSaturation final : public EffectImpl<TyreSaturation> {
  public:
   TyreSaturation()
-      : EffectImpl({"tyre_saturation", "F = c a - (c a)^3 / (3 mu^2 Fz^2), parameter 1/mu^2",
-                    "over-prediction growing like a_y^3", {{"tyre_inv_mu_sq", "-", 0.0, 4.0, 0.0, 0.0, 1.23}}, 0}) {}
+      : EffectImpl({.name = "tyre_saturation",
+                    .description = "F = c a - (c a)^3 / (3 mu^2 Fz^2), parameter 1/mu^2",
+                    .signature = "over-prediction growing like a_y^3",
+                    .params = {{.name = "tyre_inv_mu_sq", .unit = "-",
+                                .lower = 0.0, .upper = 4.0, .initial = 0.0, .neutral = 0.0, .typical = 1.23}},
+                    .num_states = 0}) {}
   template <class T>
   void ForcesT(const T* eta, const Params<T>& p, double l, const AxleSlip<T>&, const State<T>&, const ModelInputs<T>&,
                const T*, ForceTerms<T>& f) const {
