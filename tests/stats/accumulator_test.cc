@@ -204,9 +204,12 @@ TEST(AccumulatorState, EveryTruncationIsRejectedAndLeavesTheObjectUnchanged) {
   const std::string bytes = Learned(config).Serialize();
   Accumulator target = Learned(config);
   const std::string before = target.Serialize();
-  for (size_t len = 0; len < bytes.size(); len += (len < 600 ? 1 : 37)) {
+  // Every length through the header, blobs, drives and first segment header; then every
+  // 997th byte through the segment samples, and the last byte missing.
+  for (size_t len = 0; len < bytes.size(); len += (len < 600 ? 1 : 997)) {
     EXPECT_THROW(target.Restore(bytes.substr(0, len)), Error) << len;
   }
+  EXPECT_THROW(target.Restore(bytes.substr(0, bytes.size() - 1)), Error);
   EXPECT_THROW(target.Restore(bytes + '\0'), Error);  // trailing byte
   EXPECT_EQ(target.Serialize(), before);
 }
