@@ -13,8 +13,10 @@ Histogram2d::Histogram2d(double x0, double x1, int nx_, double y0, double y1, in
 
 void Histogram2d::Add(double x, double y, double w) noexcept {
   if (!std::isfinite(x) || !std::isfinite(y) || counts.empty()) return;
-  const int ix = std::clamp(static_cast<int>(std::floor((x - x_min) / (x_max - x_min) * nx)), 0, nx - 1);
-  const int iy = std::clamp(static_cast<int>(std::floor((y - y_min) / (y_max - y_min) * ny)), 0, ny - 1);
+  // Clamp before the cast: a double beyond int's range converts with undefined behaviour
+  // (on x86 to INT_MIN, which sent huge positive values to the first bin).
+  const int ix = static_cast<int>(std::clamp(std::floor((x - x_min) / (x_max - x_min) * nx), 0.0, nx - 1.0));
+  const int iy = static_cast<int>(std::clamp(std::floor((y - y_min) / (y_max - y_min) * ny), 0.0, ny - 1.0));
   counts[static_cast<size_t>(ix * ny + iy)] += w;
 }
 
@@ -88,9 +90,13 @@ Coverage Coverage::Deserialize(const std::string& text) {
     size_t n = 0;
     is >> n;
     if (is.fail() || n != h->counts.size()) throw Error("coverage: histogram size mismatch");
-    for (double& v : h->counts) is >> v;
+    for (double& v : h->counts) {
+      is >> v;
+      if (!is.fail() && !(v >= 0)) throw Error("coverage: negative histogram count");
+    }
   }
   if (is.fail()) throw Error("coverage: truncated histogram data");
+  if (!(is >> std::ws).eof()) throw Error("coverage: trailing data after the histograms");
   return c;
 }
 

@@ -2,12 +2,14 @@
 
 #include <cmath>
 #include <sstream>
+#include <string>
 
 #include "ndsid/common/error.h"
 
 namespace ndsid::stats {
 
 void RegressionStats::Add(const std::array<double, kDim>& x, double y, double w) noexcept {
+  if (!std::isfinite(x[0]) || !std::isfinite(x[1]) || !std::isfinite(x[2]) || !std::isfinite(y) || !std::isfinite(w)) return;
   for (int i = 0; i < kDim; ++i) {
     for (int j = 0; j < kDim; ++j) xtx_[i * kDim + j] += w * x[i] * x[j];
     xty_[i] += w * x[i] * y;
@@ -86,10 +88,18 @@ std::string RegressionStats::Serialize() const {
 RegressionStats RegressionStats::Deserialize(const std::string& text) {
   std::istringstream is(text);
   RegressionStats r;
-  for (double& v : r.xtx_) is >> v;
-  for (double& v : r.xty_) is >> v;
-  is >> r.yty_ >> r.n_;
-  if (is.fail()) throw Error("regression statistics: expected 14 numbers, got '" + text + "'");
+  std::array<double*, 14> fields{};
+  for (int i = 0; i < 9; ++i) fields[i] = &r.xtx_[i];
+  for (int i = 0; i < 3; ++i) fields[9 + i] = &r.xty_[i];
+  fields[12] = &r.yty_;
+  fields[13] = &r.n_;
+  for (size_t i = 0; i < fields.size(); ++i) {
+    if (!(is >> *fields[i])) {
+      throw Error("regression statistics: number " + std::to_string(i + 1) + " of 14 missing or not a finite number in '" +
+                  text + "'");
+    }
+  }
+  if (!(is >> std::ws).eof()) throw Error("regression statistics: trailing data after 14 numbers in '" + text + "'");
   return r;
 }
 

@@ -18,7 +18,8 @@ struct Histogram2d {
 
   Histogram2d() = default;
   Histogram2d(double x_min, double x_max, int nx, double y_min, double y_max, int ny);
-  void Add(double x, double y, double w = 1.0) noexcept;  // values outside go to the edge bins
+  // Values outside go to the edge bins (however far out); non-finite x or y are ignored.
+  void Add(double x, double y, double w = 1.0) noexcept;
   double total() const;
   void Merge(const Histogram2d& o);
 };

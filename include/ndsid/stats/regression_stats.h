@@ -19,6 +19,8 @@ struct LsSolution {
 class RegressionStats {
  public:
   static constexpr int kDim = 3;
+  // A sample with a non-finite regressor, y or weight is ignored (it would poison every later
+  // Solve() and the persisted state); the gate upstream already rejects such samples.
   void Add(const std::array<double, kDim>& x, double y, double weight = 1.0) noexcept;
   void Merge(const RegressionStats& other) noexcept;  // statistics of the union of the data
   void Forget(double factor) noexcept;                 // scales everything by factor in (0, 1]
@@ -29,8 +31,9 @@ class RegressionStats {
   double yty() const { return yty_; }
   double n() const { return n_; }
 
-  std::string Serialize() const;                       // one line of numbers
-  static RegressionStats Deserialize(const std::string& text);  // throws ndsid::Error
+  std::string Serialize() const;  // one line of 14 numbers, 17 significant digits: exact round trip
+  // Throws ndsid::Error naming the missing or malformed number, or on trailing data.
+  static RegressionStats Deserialize(const std::string& text);
 
   bool operator==(const RegressionStats&) const = default;
 

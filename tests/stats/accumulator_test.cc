@@ -1,0 +1,252 @@
+// Accumulator: the segment window (decimation, minimum segment length, eviction by window_h),
+// the drive rule, and the binary persistence (round trip, truncation, corruption).
+#include "ndsid/stats/accumulator.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "ndsid/common/error.h"
+
+namespace ndsid::stats {
+namespace {
+
+constexpr double kSyncHz = 100.0;
+
+config::Config SmallConfig(double window_h) {
+  config::Config c;
+  c.identification.rate_hz = 50.0;  // decimation by 2
+  c.identification.window_h = window_h;
+  c.gate.min_segment_s = 4.0;
+  c.gate.min_drive_km = 0.5;
+  return c;
+}
+
+struct Feeder {
+  Accumulator& acc;
+  int64_t drive_id = -1;
+  int64_t t_ns = 0;
+  double distance_m = 0;
+  bool prev_accepted = false;
+
+  gate::GatedSample Next(bool accepted, bool new_drive = false) {
+    if (new_drive) {
+      ++drive_id;
+      distance_m = 0;
+      prev_accepted = false;
+    }
+    t_ns += 10'000'000;
+    const double t = t_ns * 1e-9;
+    gate::GatedSample g;
+    g.sample.t_ns = t_ns;
+    g.sample.speed_mps = 20;
+    g.sample.steer_rad = 0.05 * std::sin(0.3 * t);
+    g.sample.lat_accel_mps2 = 2.0 * std::sin(0.3 * t);
+    g.sample.yaw_rate_radps = 0.1 * std::sin(0.3 * t);
+    g.sample.has_yaw_rate = true;
+    g.sample.valid = true;
+    g.verdict = accepted ? gate::Verdict::kAccepted : gate::Verdict::kNonlinearRange;
+    g.drive_id = drive_id;
+    g.new_drive = new_drive;
+    g.segment_start = accepted && !prev_accepted;
+    g.quasi_steady = accepted;
+    distance_m += 0.2;
+    g.drive_distance_m = distance_m;
+    prev_accepted = accepted;
+    return g;
+  }
+  // `n` samples at 100 Hz, accepted or not; the first opens a new drive if asked.
+  void Feed(int n, bool accepted, bool new_drive = false) {
+    for (int i = 0; i < n; ++i) acc.Add(Next(accepted, new_drive && i == 0));
+  }
+};
+
+double WindowSeconds(const Accumulator& acc) {
+  double s = 0;
+  for (const auto& seg : acc.window()) s += seg->duration_s();
+  return s;
+}
+
+// Catches: decimation that does not average consecutive pairs, or a segment that starts at the
+// wrong time or drops the odd last sample unaccounted.
+TEST(AccumulatorWindow, SegmentsAreBoxcarDecimatedFromTheirFirstSample) {
+  const config::Config config = SmallConfig(20);
+  Accumulator acc(config, kSyncHz);
+  Feeder f{acc};
+  std::vector<gate::GatedSample> fed;
+  for (int i = 0; i < 3001; ++i) {  // 30.01 s accepted: 2.5 km, a used drive
+    fed.push_back(f.Next(true, i == 0));
+    acc.Add(fed.back());
+  }
+  acc.Finish();
+  ASSERT_EQ(acc.window().size(), 1u);
+  const Segment& seg = *acc.window().front();
+  EXPECT_EQ(seg.samples.size(), 1500u);  // the unpaired last sample is not emitted
+  EXPECT_DOUBLE_EQ(seg.dt_s, 0.02);
+  EXPECT_EQ(seg.t0_ns, fed.front().sample.t_ns);
+  EXPECT_TRUE(seg.has_yaw_rate);
+  for (size_t k = 0; k < seg.samples.size(); k += 97) {
+    const auto& a = fed[2 * k].sample;
+    const auto& b = fed[2 * k + 1].sample;
+    const float steer = (static_cast<float>(a.steer_rad) + static_cast<float>(b.steer_rad)) * 0.5f;
+    const float ay = (static_cast<float>(a.lat_accel_mps2) + static_cast<float>(b.lat_accel_mps2)) * 0.5f;
+    EXPECT_EQ(seg.samples[k].steer_rad, steer) << k;
+    EXPECT_EQ(seg.samples[k].lat_accel_mps2, ay) << k;
+  }
+}
+
+// Catches: stretches shorter than min_segment_s entering the dynamic fit, or their samples not
+// counted; drives shorter than min_drive_km not discarded (statistics, coverage and segments).
+TEST(AccumulatorWindow, ShortSegmentsAndShortDrivesAreCountedNotKept) {
+  const config::Config config = SmallConfig(20);
+  Accumulator acc(config, kSyncHz);
+  Feeder f{acc};
+  f.Feed(1000, true, true);  // 10 s: a segment; 200 m, drive not yet used
+  f.Feed(10, false);
+  f.Feed(300, true);         // 3 s < min_segment_s
+  f.Feed(10, false);
+  f.Feed(2000, true);        // drive passes 0.5 km here
+  f.Feed(500, true, true);   // a new drive of 100 m: ends short
+  acc.Finish();
+  EXPECT_EQ(acc.counters().short_segment_samples, 300u);
+  EXPECT_EQ(acc.counters().short_drive_samples, 500u);
+  ASSERT_EQ(acc.window().size(), 2u);
+  EXPECT_DOUBLE_EQ(WindowSeconds(acc), 30.0);
+  ASSERT_EQ(acc.drives().size(), 2u);
+  EXPECT_TRUE(acc.drives()[0].used);
+  EXPECT_FALSE(acc.drives()[1].used);
+  EXPECT_NEAR(acc.gated_hours() * 3600, 33.0, 1e-9);  // accepted time of the used drive only
+  EXPECT_EQ(acc.steady_state().without_yaw().n(), 3300);
+  EXPECT_EQ(acc.coverage().gg().total(), 3300);
+}
+
+// Catches: a window that keeps more than window_h (beyond the oldest segment needed to reach
+// it), evicts recent data before old, or forgets to count evictions — after every Add, including
+// when a drive's held-back segments are committed at once.
+TEST(AccumulatorWindow, EvictsOldestSegmentsBeyondWindowHours) {
+  const double window_h = 60.0 / 3600;  // one minute
+  const config::Config config = SmallConfig(window_h);
+  Accumulator acc(config, kSyncHz);
+  Feeder f{acc};
+  uint64_t kept_or_evicted = 0;
+  for (int drive = 0; drive < 4; ++drive) {
+    // 40 s of 8 s segments before the drive reaches 0.5 km (held back), then 40 s more.
+    for (int s = 0; s < 10; ++s) {
+      f.Feed(800, true, s == 0);
+      f.Feed(5, false);
+      ++kept_or_evicted;
+      const double total = WindowSeconds(acc);
+      if (!acc.window().empty()) {
+        EXPECT_LT(total - acc.window().front()->duration_s(), window_h * 3600) << "drive " << drive << " segment " << s;
+      }
+    }
+  }
+  acc.Finish();
+  EXPECT_EQ(acc.window().size() + acc.counters().evicted_segments, kept_or_evicted);
+  EXPECT_GE(WindowSeconds(acc), window_h * 3600);
+  // Oldest first, and the newest segment is kept.
+  for (size_t i = 1; i < acc.window().size(); ++i) EXPECT_LT(acc.window()[i - 1]->t0_ns, acc.window()[i]->t0_ns);
+  EXPECT_EQ(acc.window().back()->t0_ns, f.t_ns - int64_t{804} * 10'000'000);
+}
+
+// Catches: an identification holding a copy of the window losing its segments when the window
+// moves on (the header promises shared, immutable segments).
+TEST(AccumulatorWindow, CopiedWindowOutlivesEviction) {
+  const config::Config config = SmallConfig(20.0 / 3600);
+  Accumulator acc(config, kSyncHz);
+  Feeder f{acc};
+  f.Feed(3000, true, true);
+  f.Feed(5, false);
+  const auto copy = acc.window();
+  ASSERT_EQ(copy.size(), 1u);
+  const size_t n = copy.front()->samples.size();
+  f.Feed(3000, true);
+  f.Feed(5, false);
+  EXPECT_NE(acc.window().front(), copy.front());  // evicted from the live window
+  EXPECT_EQ(copy.front()->samples.size(), n);     // still whole in the copy
+}
+
+Accumulator Learned(const config::Config& config) {
+  Accumulator acc(config, kSyncHz);
+  Feeder f{acc};
+  f.Feed(3000, true, true);
+  f.Feed(20, false);
+  f.Feed(250, true);  // short segment
+  f.Feed(1200, true, true);
+  f.Feed(2000, true);  // 640 m: used; the segment is still open, Serialize() closes it
+  return acc;
+}
+
+// Catches: persistence that changes the learned state (bit for bit, doubles and floats are
+// copied as bytes), or a Serialize() that modifies the object.
+TEST(AccumulatorState, RoundTripIsByteIdentical) {
+  const config::Config config = SmallConfig(20);
+  for (int which = 0; which < 2; ++which) {
+    Accumulator a = which == 0 ? Accumulator(config, kSyncHz) : Learned(config);
+    const std::string bytes = a.Serialize();
+    EXPECT_EQ(a.Serialize(), bytes);  // Serialize() does not change the object
+    Accumulator b(config, kSyncHz);
+    b.Restore(bytes);
+    EXPECT_EQ(b.Serialize(), bytes);
+    EXPECT_EQ(b.steady_state(), SteadyStateStats::Deserialize(a.steady_state().Serialize()));
+    EXPECT_EQ(b.window().size(), which == 0 ? 0u : 2u);
+  }
+}
+
+// Catches: a truncated state file (power loss mid-write) restored as a shorter state, or a crash
+// on it; and a failed restore that leaves the accumulator half-replaced.
+TEST(AccumulatorState, EveryTruncationIsRejectedAndLeavesTheObjectUnchanged) {
+  const config::Config config = SmallConfig(20);
+  const std::string bytes = Learned(config).Serialize();
+  Accumulator target = Learned(config);
+  const std::string before = target.Serialize();
+  // Every length through the header, blobs, drives and first segment header; then every
+  // 997th byte through the segment samples, and the last byte missing.
+  for (size_t len = 0; len < bytes.size(); len += (len < 600 ? 1 : 997)) {
+    EXPECT_THROW(target.Restore(bytes.substr(0, len)), Error) << len;
+  }
+  EXPECT_THROW(target.Restore(bytes.substr(0, bytes.size() - 1)), Error);
+  EXPECT_THROW(target.Restore(bytes + '\0'), Error);  // trailing byte
+  EXPECT_EQ(target.Serialize(), before);
+}
+
+// Catches: corrupted values (NaN, negative counts, a wrong tag) restored instead of rejected.
+TEST(AccumulatorState, CorruptedValuesAreRejected) {
+  const config::Config config = SmallConfig(20);
+  const std::string bytes = Learned(config).Serialize();
+  Accumulator target(config, kSyncHz);
+  auto with_double_at = [&](size_t pos, double v) {
+    std::string b = bytes;
+    std::memcpy(b.data() + pos, &v, sizeof v);
+    return b;
+  };
+  EXPECT_THROW(target.Restore(with_double_at(4, std::numeric_limits<double>::quiet_NaN())), Error);  // gated_s
+  EXPECT_THROW(target.Restore(with_double_at(4, -1.0)), Error);
+  std::string tag = bytes;
+  tag[3] = '2';
+  EXPECT_THROW(target.Restore(tag), Error);
+  // The last segment sample's last float (long acceleration) set to NaN.
+  std::string last = bytes;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(last.data() + last.size() - sizeof(float), &nan, sizeof nan);
+  EXPECT_THROW(target.Restore(last), Error);
+  EXPECT_TRUE(target.window().empty());
+}
+
+// Catches: a restored state learned with a longer window_h kept whole under a shorter one.
+TEST(AccumulatorState, RestoreUnderAShorterWindowEvicts) {
+  const config::Config long_window = SmallConfig(20), short_window = SmallConfig(15.0 / 3600);
+  const Accumulator a = Learned(long_window);
+  const std::string bytes = a.Serialize();
+  Accumulator b(short_window, kSyncHz);
+  b.Restore(bytes);
+  ASSERT_EQ(b.window().size(), 1u);  // 30 s + 32 s: the older 30 s segment is beyond 15 s
+  EXPECT_EQ(b.counters().evicted_segments, 1u);
+}
+
+}  // namespace
+}  // namespace ndsid::stats
