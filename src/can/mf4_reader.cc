@@ -167,7 +167,7 @@ void Mf4Reader::CollectChannels(uint64_t cn_at, Group& g, bool& is_can, int dept
           // data: u8 type, u8 precision, u16 flags, u16 ref count, u16 val count, f64 phys min,
           // f64 phys max, then the values p0, p1
           std::memcpy(&g.time_offset, cc->data.data() + 24, 8);
-          if (cc->data.size() >= 48) std::memcpy(&g.time_factor, cc->data.data() + 32, 8);
+          std::memcpy(&g.time_factor, cc->data.data() + 32, 8);
         } else if (cc && !(cc->Is("##CC") && cc->data.size() >= 1 && cc->data[0] == 0)) {
           g.time.present = false;  // a conversion we do not apply: no usable time
           g.time.data_type = 255;

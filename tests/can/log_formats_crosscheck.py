@@ -247,6 +247,20 @@ def main():
             if rc == 0 or rc2 == 0:
                 failures.append(f"cut {name}: accepted silently (dump exit {rc}, decode exit {rc2}): {summary} {err2}")
 
+        # replay (the path of compare, diagnose and study too): a cut file stops it with the
+        # located reason, an unsupported file is refused before any work (exit 78)
+        config = os.path.join(os.path.dirname(a.dbc), "..", "config", "example_vehicle.yaml")
+        pcap = os.path.join(d, "capture.pcap")
+        with open(pcap, "wb") as f:
+            f.write(b"\xd4\xc3\xb2\xa1" + bytes(40))
+        for path, want_rc, want_text in ((os.path.join(d, "cut-blf"), 1, "reading stopped"),
+                                         (pcap, 78, "looks like a pcap capture")):
+            out = subprocess.run([a.ndsid, "replay", "--config", config, "--log", files["blf"], path,
+                                  "--report", os.path.join(d, "report")], capture_output=True, text=True)
+            print(f"replay with {os.path.basename(path)}: exit {out.returncode}")
+            if out.returncode != want_rc or want_text not in out.stderr or path not in out.stderr:
+                failures.append(f"replay {path}: exit {out.returncode} (want {want_rc}, '{want_text}'): {out.stderr[-400:]}")
+
     for f in failures:
         print("FAIL", f)
     return 1 if failures else 0
