@@ -236,9 +236,11 @@ const char* AscReader::EventLine(const Tokens& tok, CanFrame& frame) noexcept {
       frame.bus = static_cast<uint16_t>(bus);
     }
   }
-  const int64_t event_ns = relative_ ? last_ns_ + *t : *t;
+  int64_t event_ns = *t;
+  if ((relative_ && !AddTime(last_ns_, *t, event_ns)) || !AddTime(start_ns_, event_ns, frame.timestamp_ns)) {
+    return "time out of range";
+  }
   if (why == nullptr || why == kSkip) last_ns_ = event_ns;
-  frame.timestamp_ns = start_ns_ + event_ns;
   return why;
 }
 

@@ -40,6 +40,20 @@ class BlfReader final : public FrameLogBase {
     file_ = gzopen(path.c_str(), "rb");
     if (file_ == nullptr) throw Error("BLF log " + path + ": cannot open: " + std::strerror(errno));
     gzbuffer(file_, 1 << 17);
+    try {
+      ReadFileHeader(path);
+    } catch (...) {
+      gzclose(file_);  // the destructor does not run when the constructor throws
+      file_ = nullptr;
+      throw;
+    }
+  }
+  ~BlfReader() override {
+    if (file_ != nullptr) gzclose(file_);
+  }
+
+ private:
+  void ReadFileHeader(const std::string& path) {
     uint8_t header[kFileHeaderMin];
     if (ReadExact(header, sizeof header) != sizeof header || std::memcmp(header, "LOGG", 4) != 0) {
       throw Error("BLF log " + path + ": no BLF file header (truncated?)");
@@ -56,11 +70,6 @@ class BlfReader final : public FrameLogBase {
     std::vector<uint8_t> rest(header_size - kFileHeaderMin);
     if (ReadExact(rest.data(), rest.size()) != rest.size()) throw Error("BLF log " + path + ": truncated header");
   }
-  ~BlfReader() override {
-    if (file_ != nullptr) gzclose(file_);
-  }
-
- private:
   bool Next(CanFrame& frame) noexcept override;
   size_t ReadExact(uint8_t* out, size_t n) noexcept;
   // Reads the next top-level object and appends its content to inner_; false at the end.
@@ -174,7 +183,7 @@ bool BlfReader::LoadMore() noexcept {
       Reject(at, "log container with unknown compression method");
       continue;
     }
-    if (uncompressed > kMaxUncompressed) {
+    if (uncompressed > kMaxUncompressed || uncompressed > data_bytes * 1100 + 1024) {  // deflate: at most ~1032:1
       Reject(at, "log container uncompressed size out of range");
       continue;
     }
@@ -214,7 +223,10 @@ bool BlfReader::Decode(const uint8_t* obj, uint32_t size, CanFrame& frame) noexc
     Reject(inner_origin_, "object time out of range");
     return false;
   }
-  frame.timestamp_ns = start_ns_ + static_cast<int64_t>(time) * unit;
+  if (!AddTime(start_ns_, static_cast<int64_t>(time) * unit, frame.timestamp_ns)) {
+    Reject(inner_origin_, "object time out of range");
+    return false;
+  }
   const uint8_t* body = obj + header_size;
   const uint32_t body_size = size - header_size;
   uint32_t channel = 0;

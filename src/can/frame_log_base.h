@@ -25,6 +25,9 @@ constexpr int FdDlcToLength(int dlc) {
   return dlc >= 0 && dlc < 16 ? kLengths[dlc] : -1;
 }
 
+// a + b into out; false when the sum does not fit (a corrupt time, counted by the caller).
+inline bool AddTime(int64_t a, int64_t b, int64_t& out) noexcept { return !__builtin_add_overflow(a, b, &out); }
+
 class FrameLogBase : public FrameLog {
  public:
   FrameLogBase(std::string path, LogFormat format, bool binary);

@@ -11,7 +11,7 @@ namespace ndsid::can::detail {
 namespace {
 
 constexpr size_t kBlockHeader = 24;              // id[4], reserved[4], u64 length, u64 link count
-constexpr uint64_t kMaxInflated = 256u << 20;    // larger DZ blocks are refused
+constexpr uint64_t kMaxInflated = 64u << 20;     // larger DZ blocks are refused (asammdf writes 4 MiB)
 constexpr size_t kDtChunk = 1 << 18;
 
 uint32_t U32(const uint8_t* p) { return p[0] | p[1] << 8 | p[2] << 16 | static_cast<uint32_t>(p[3]) << 24; }
@@ -151,7 +151,9 @@ bool Mf4DataStream::Refill() noexcept {
         if (data_at > file_->size() || data_bytes > file_->size() - data_at) {
           return Fail("a DZ block ends beyond the end of the file (truncated)");
         }
-        if (original > kMaxInflated || packed > data_bytes - 24) return Fail("DZ block sizes out of range");
+        if (original > kMaxInflated || packed > data_bytes - 24 || original > packed * 1100 + 1024) {
+          return Fail("DZ block sizes out of range");  // deflate expands at most ~1032:1
+        }
         std::vector<uint8_t> in(packed);
         if (!file_->ReadAt(data_at + 24, in.data(), packed)) return Fail("cannot read a DZ block");
         std::vector<uint8_t> out(original);

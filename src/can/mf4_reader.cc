@@ -27,6 +27,8 @@ uint64_t U64(const uint8_t* p) { return U32(p) | static_cast<uint64_t>(U32(p + 4
 
 enum class GroupKind { kData, kRemote, kError };
 
+constexpr uint32_t kMaxRecordBytes = 1u << 16;  // a CAN frame record is well under 200 bytes
+
 // Where one value sits in a record.
 struct Field {
   bool present = false;
@@ -69,7 +71,8 @@ struct Group {
   GroupKind kind = GroupKind::kData;
   uint64_t record_id = 0;
   uint64_t cycles = 0;
-  uint32_t record_bytes = 0;  // data + invalidation bytes
+  uint32_t record_bytes = 0;  // data + invalidation bytes (kMaxRecordBytes + 1 when larger)
+  uint64_t record_bytes_full = 0;
   Field time, bus, id, ide, dlc, length, bytes, edl, brs, esi;
   double time_offset = 0, time_factor = 1;  // linear conversion of the master
   uint64_t records_read = 0;
@@ -89,10 +92,12 @@ struct Cursor {
 
 bool ValidField(const Field& f, uint32_t record_bytes) {
   if (!f.present) return true;
-  if (f.data_type == 10) return f.bit_offset == 0 && f.bit_count % 8 == 0 && f.byte_offset + f.bit_count / 8 <= record_bytes;
-  if (f.data_type == 4 || f.data_type == 5) return (f.bit_count == 32 || f.bit_count == 64) && f.bit_offset == 0 && f.byte_offset + f.bit_count / 8 <= record_bytes;
+  const uint64_t start = f.byte_offset;
+  const uint64_t bits = f.bit_count;
+  if (f.data_type == 10) return f.bit_offset == 0 && bits % 8 == 0 && start + bits / 8 <= record_bytes;
+  if (f.data_type == 4 || f.data_type == 5) return (bits == 32 || bits == 64) && f.bit_offset == 0 && start + bits / 8 <= record_bytes;
   if (f.data_type > 3) return false;
-  return f.bit_count >= 1 && f.bit_count <= 64 && f.bit_offset < 8 && f.byte_offset + (f.bit_offset + f.bit_count + 7) / 8 <= record_bytes && (f.bit_offset + f.bit_count <= 64 || f.data_type == 0);
+  return bits >= 1 && f.bit_offset < 8 && f.bit_offset + bits <= 64 && start + (f.bit_offset + bits + 7) / 8 <= record_bytes;
 }
 
 class Mf4Reader final : public FrameLogBase {
@@ -140,7 +145,7 @@ std::string Mf4Reader::Text(uint64_t at) {
   if (at == 0) return {};
   std::string why;
   auto tx = ReadMf4Block(file_, at, true, why);
-  if (!tx || !tx->Is("##TX")) return {};
+  if (!tx || !tx->Is("##TX") || tx->data.empty()) return {};
   const auto* p = reinterpret_cast<const char*>(tx->data.data());
   return std::string(p, strnlen(p, tx->data.size()));
 }
@@ -202,7 +207,9 @@ bool Mf4Reader::DescribeGroup(const Mf4Block& cg, Group& g) {
   const uint8_t* d = cg.data.data();
   g.record_id = U64(d);
   g.cycles = U64(d + 8);
-  g.record_bytes = U32(d + 24) + U32(d + 28);
+  const uint64_t bytes = uint64_t{U32(d + 24)} + U32(d + 28);
+  g.record_bytes = bytes > kMaxRecordBytes ? kMaxRecordBytes + 1 : static_cast<uint32_t>(bytes);
+  g.record_bytes_full = bytes;
   bool is_can = false;
   CollectChannels(cg.Link(1), g, is_can, 0);
   return is_can;
@@ -224,7 +231,8 @@ void Mf4Reader::AddDataGroup(const Mf4Block& dg) {
     const bool vlsd = cg->data.size() >= 18 && (U16(cg->data.data() + 16) & 1) != 0;
     if (!vlsd && DescribeGroup(*cg, g)) {
       const char* problem = nullptr;
-      if (!g.time.present) problem = "no time master with an identity or linear conversion";
+      if (g.record_bytes == 0 || g.record_bytes > kMaxRecordBytes) problem = "record size out of range";
+      else if (!g.time.present) problem = "no time master with an identity or linear conversion";
       else if (!g.id.present && g.kind != GroupKind::kError) problem = "no ID channel";
       else if (g.bytes.present && g.bytes.data_type != 10) problem = "DataBytes not stored in the record (VLSD is not read)";
       for (const Field* f : {&g.time, &g.bus, &g.id, &g.ide, &g.dlc, &g.length, &g.bytes, &g.edl, &g.brs, &g.esi}) {
@@ -236,7 +244,7 @@ void Mf4Reader::AddDataGroup(const Mf4Block& dg) {
       found_can_group_ = true;
       if (g.cycles > 0 || c.record_id_bytes != 0) c.groups.push_back(g);
     } else {
-      c.other.emplace_back(vlsd ? U64(cg->data.data()) : g.record_id, vlsd ? -1 : int64_t{g.record_bytes});
+      c.other.emplace_back(vlsd ? U64(cg->data.data()) : g.record_id, vlsd ? -1 : static_cast<int64_t>(g.record_bytes_full));
     }
     cg_at = cg->Link(0);
   }
@@ -291,7 +299,10 @@ bool Mf4Reader::Advance(Cursor& c) noexcept {
       Reject(c.stream->block_offset(), "record with a non-finite or out-of-range time");
       continue;
     }
-    f.timestamp_ns = start_ns_ + std::llround(t * 1e9);
+    if (!AddTime(start_ns_, std::llround(t * 1e9), f.timestamp_ns)) {
+      Reject(c.stream->block_offset(), "record time out of range");
+      continue;
+    }
     const uint64_t bus = g->bus.present ? g->bus.Unsigned(r) : 0;
     const int bus_index = BusForChannel(bus > kMaxChannel ? kMaxChannel + 1 : static_cast<uint32_t>(bus));
     if (bus_index < 0) {

@@ -11,8 +11,8 @@ std::optional<int64_t> ParseSecondsNs(std::string_view text) noexcept {
   int64_t seconds = 0;
   if (text.empty()) return std::nullopt;
   for (; i < text.size() && text[i] >= '0' && text[i] <= '9'; ++i) {
-    if (seconds > 9'000'000'000LL) return std::nullopt;  // beyond ~285 years
     seconds = seconds * 10 + (text[i] - '0');
+    if (seconds > 9'000'000'000LL) return std::nullopt;  // beyond ~285 years: int64 ns overflow
   }
   if (i == 0) return std::nullopt;
   int64_t fraction = 0;
