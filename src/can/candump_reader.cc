@@ -181,6 +181,10 @@ const std::vector<MalformedLine>& CandumpReader::first_malformed() const noexcep
 uint64_t CandumpReader::lines() const noexcept { return impl_->line_number; }
 const std::string& CandumpReader::io_error() const noexcept { return impl_->io_error; }
 
+std::string CandumpReader::Locate(const MalformedRecord& record) const {
+  return FormatLocation(impl_->path, static_cast<int>(record.position), 0, record.reason);
+}
+
 std::string CandumpReader::Describe() const {
   const bool compressed = impl_->file != nullptr && gzdirect(impl_->file) == 0;
   return "log " + impl_->path + (compressed ? " (gzip)" : "");

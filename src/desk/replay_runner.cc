@@ -9,9 +9,10 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "ndsid/can/candump_reader.h"
+#include "ndsid/can/frame_log.h"
 #include "fit_json.h"
 #include "ndsid/common/atomic_file.h"
+#include "ndsid/common/error.h"
 
 namespace ndsid::desk {
 namespace fs = std::filesystem;
@@ -20,8 +21,10 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
   ReplayOutcome out;
   const auto& logs = options.logs.empty() ? config.source.logs : options.logs;
   std::vector<can::CanFrame> frames(256);
+  for (const std::string& path : logs) can::DetectLogFormat(path);  // every file readable before any work
   for (const std::string& path : logs) {
-    can::CandumpReader reader(path);
+    const std::unique_ptr<can::FrameLog> log = can::OpenFrameLog(path);
+    can::FrameLog& reader = *log;
     spdlog::info("replaying {}", reader.Describe());
     for (;;) {
       const can::ReadResult r = reader.Read(frames, 0);
@@ -34,6 +37,9 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
       if (r.state == can::SourceState::kEnd) break;
     }
     const auto& c = reader.counters();
+    if (!reader.io_error().empty()) {  // a truncated or corrupt file is never taken as complete
+      throw Error(path + ": reading stopped after " + std::to_string(c.frames) + " frames: " + reader.io_error());
+    }
     out.source.frames += c.frames;
     out.source.malformed += c.malformed;
     out.source.error_frames += c.error_frames;

@@ -15,6 +15,7 @@
 #include "daemon_messages.h"
 #include "daemon_monitor.h"
 #include "daemon_source.h"
+#include "ndsid/can/frame_log.h"
 #include "ndsid/can/socketcan_source.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/dbc/dbc_parser.h"
@@ -58,6 +59,11 @@ Estimator BuildEstimator(const std::string& path) {
     for (const std::string& log : c.source.logs) {
       if (::access(log.c_str(), R_OK) != 0) {
         throw ConfigError(FormatLocation(c.path, 0, 0, "source.logs: cannot read '" + log + "'"));
+      }
+      try {
+        can::DetectLogFormat(log);  // a format we cannot read fails --check-config
+      } catch (const Error& err) {
+        throw ConfigError(FormatLocation(c.path, 0, 0, std::string("source.logs: ") + err.what()));
       }
     }
   }

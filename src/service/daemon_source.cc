@@ -23,7 +23,7 @@ can::ReadResult LogSequence::Read(std::span<can::CanFrame> out, int /*timeout_ms
       if (next_ >= paths_.size()) return {0, can::SourceState::kEnd};
       const std::string& path = paths_[next_++];
       try {
-        current_ = std::make_unique<can::CandumpReader>(path);
+        current_ = can::OpenFrameLog(path);
         spdlog::info("reading log {} ({} of {})", path, next_, paths_.size());
       } catch (const std::exception& e) {
         spdlog::error("skipping log {}: {}", path, e.what());
@@ -39,7 +39,7 @@ can::ReadResult LogSequence::Read(std::span<can::CanFrame> out, int /*timeout_ms
 void LogSequence::CloseCurrent() noexcept {
   const can::SourceCounters& c = current_->counters();
   if (!current_->io_error().empty()) spdlog::error("log {}: stopped early: {}", current_->Describe(), current_->io_error());
-  spdlog::info("{} done: {} frames, {} malformed lines", current_->Describe(), c.frames, c.malformed);
+  spdlog::info("{} done: {} frames, {} malformed records", current_->Describe(), c.frames, c.malformed);
   Add(finished_, c);
   current_.reset();
 }

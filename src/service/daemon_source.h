@@ -1,4 +1,4 @@
-// The daemon's log input: the candump files of config.source.logs, one after another, as one
+// The daemon's log input: the log files (any format can::OpenFrameLog reads) of config.source.logs, one after another, as one
 // FrameSource (kEnd only after the last). A file that cannot be opened is logged and skipped.
 // Thread: the reading thread (the only reader of the frame source).
 #pragma once
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "ndsid/can/candump_reader.h"
+#include "ndsid/can/frame_log.h"
 #include "ndsid/can/frame_source.h"
 
 namespace ndsid::service {
@@ -25,7 +25,7 @@ class LogSequence final : public can::FrameSource {
 
   std::vector<std::string> paths_;
   size_t next_ = 0;
-  std::unique_ptr<can::CandumpReader> current_;
+  std::unique_ptr<can::FrameLog> current_;
   can::SourceCounters finished_;       // of the files already read
   mutable can::SourceCounters total_;  // finished_ + current
   std::vector<std::string> no_buses_;

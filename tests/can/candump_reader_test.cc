@@ -129,8 +129,8 @@ TEST(CandumpReader, CountsMalformedLinesKeepsFirstTenWithLineNumbers) {
   EXPECT_EQ(frames.size(), 2u);
   EXPECT_EQ(reader.counters().malformed, 25u);
   ASSERT_EQ(reader.first_malformed().size(), CandumpReader::kKeptMalformed);
-  EXPECT_EQ(reader.first_malformed()[0].line, 5u);
-  EXPECT_EQ(reader.first_malformed()[9].line, 14u);
+  EXPECT_EQ(reader.first_malformed()[0].position, 5u);
+  EXPECT_EQ(reader.first_malformed()[9].position, 14u);
   EXPECT_EQ(reader.first_malformed()[0].reason, "odd number of hex digits in data");
   EXPECT_EQ(reader.lines(), 30u);
 }
@@ -148,9 +148,9 @@ TEST(CandumpReader, OverlongLineIsOneMalformedLineAndReadingContinues) {
   EXPECT_EQ(frames[1].id, 0x124u);
   EXPECT_EQ(reader.counters().malformed, 2u);
   ASSERT_EQ(reader.first_malformed().size(), 2u);
-  EXPECT_EQ(reader.first_malformed()[0].line, 2u);
+  EXPECT_EQ(reader.first_malformed()[0].position, 2u);
   EXPECT_EQ(reader.first_malformed()[0].reason, "line longer than 512 bytes");
-  EXPECT_EQ(reader.first_malformed()[1].line, 3u);
+  EXPECT_EQ(reader.first_malformed()[1].position, 3u);
   EXPECT_EQ(reader.lines(), 4u);
 }
 

@@ -9,17 +9,14 @@
 #include <string_view>
 #include <vector>
 
-#include "ndsid/can/frame_source.h"
+#include "ndsid/can/frame_log.h"
 
 namespace ndsid::can {
 
-// A rejected line: where and why (kept for the first few, all are counted).
-struct MalformedLine {
-  uint64_t line = 0;
-  std::string reason;
-};
+// A rejected line: its line number (position) and why.
+using MalformedLine = MalformedRecord;
 
-class CandumpReader final : public FrameSource {
+class CandumpReader final : public FrameLog {
  public:
   // Throws ndsid::Error naming the path when the file cannot be opened.
   explicit CandumpReader(const std::string& path);
@@ -30,15 +27,17 @@ class CandumpReader final : public FrameSource {
   const std::vector<std::string>& bus_names() const noexcept override;
   std::string Describe() const override;
 
+  LogFormat format() const noexcept override { return LogFormat::kCandump; }
   // The first few malformed lines (all of them are counted in counters().malformed).
-  const std::vector<MalformedLine>& first_malformed() const noexcept;
+  const std::vector<MalformedLine>& first_malformed() const noexcept override;
   // Lines read so far, including blank, comment and malformed ones.
   uint64_t lines() const noexcept;
   // Empty unless reading stopped early on an I/O or decompression error (e.g. a truncated
   // gzip file); the reader then reports kEnd.
-  const std::string& io_error() const noexcept;
+  const std::string& io_error() const noexcept override;
+  uint64_t skipped_records() const noexcept override { return 0; }
+  std::string Locate(const MalformedRecord& record) const override;
 
-  static constexpr size_t kKeptMalformed = 10;  // first_malformed() keeps (and logs) this many
   static constexpr size_t kMaxLineBytes = 512;  // longer lines are malformed (longest valid ~200)
   static constexpr size_t kMaxBuses = 256;      // distinct interface names before lines are rejected
 

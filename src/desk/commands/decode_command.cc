@@ -1,4 +1,4 @@
-// `ndsid decode`: a candump log decoded with a DBC, as CSV on stdout (like `cantools decode`,
+// `ndsid decode`: a CAN log (any format of can::OpenFrameLog) decoded with a DBC, as CSV on stdout (like `cantools decode`,
 // one row per signal value). Malformed lines, unknown ids and short frames are counted and
 // summarised on stderr at the end.
 #include <cinttypes>
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "command_registry.h"
-#include "ndsid/can/candump_reader.h"
+#include "ndsid/can/frame_log.h"
 #include "ndsid/common/error.h"
 #include "ndsid/dbc/dbc_parser.h"
 #include "ndsid/dbc/decoder.h"
@@ -62,7 +62,8 @@ int Run(const DecodeArgs& a) {
   const dbc::Database db = dbc::ParseDbcFile(a.dbc);
   const std::vector<dbc::SignalSelector> selection = Select(db, a);
   const dbc::Decoder decoder(db, selection);
-  can::CandumpReader reader(a.log);
+  const std::unique_ptr<can::FrameLog> log = can::OpenFrameLog(a.log);
+  can::FrameLog& reader = *log;
 
   struct Counts {
     uint64_t frames = 0, decoded = 0, values = 0, unknown_id = 0, too_short = 0, not_data = 0, other_bus = 0;
@@ -102,18 +103,23 @@ int Run(const DecodeArgs& a) {
   const auto& c = reader.counters();
   std::cerr << "ndsid decode: " << n.frames << " frames, " << n.decoded << " decoded, " << n.values << " values; "
             << n.unknown_id << " unknown id, " << n.too_short << " too short, " << n.not_data << " remote/error, "
-            << n.other_bus << " on other buses, " << c.malformed << " malformed lines\n";
-  for (const auto& m : reader.first_malformed()) {
-    std::cerr << "  " << a.log << ":" << m.line << ": " << m.reason << "\n";
+            << n.other_bus << " on other buses, " << c.malformed << " malformed "
+            << (reader.format() == can::LogFormat::kCandump || reader.format() == can::LogFormat::kAsc ? "lines" : "records")
+            << " (" << can::LogFormatName(reader.format()) << ")\n";
+  for (const auto& m : reader.first_malformed()) std::cerr << "  " << reader.Locate(m) << "\n";
+  if (!reader.io_error().empty()) {  // truncated or unreadable: the CSV above is incomplete
+    std::cerr << "ndsid decode: " << a.log << ": reading stopped after " << c.frames << " frames: " << reader.io_error()
+              << "\n";
+    return 65;  // EX_DATAERR
   }
   return 0;
 }
 
 void RegisterDecode(CLI::App& parent, int& exit_code) {
   auto args = std::make_shared<DecodeArgs>();
-  auto* cmd = parent.add_subcommand("decode", "Decode a candump log with a DBC; CSV t,message,signal,value on stdout");
+  auto* cmd = parent.add_subcommand("decode", "Decode a CAN log (candump, ASC, BLF, MF4) with a DBC; CSV t,message,signal,value on stdout");
   cmd->add_option("--dbc", args->dbc, "DBC file")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--log", args->log, "candump -l log (plain or gzip)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--log", args->log, "CAN log: candump -l (plain or gzip), Vector ASC/BLF, ASAM MF4 bus logging")->required()->check(CLI::ExistingFile);
   cmd->add_option("--messages", args->messages, "only these messages (comma-separated names)")->delimiter(',');
   cmd->add_option("--signals", args->signals, "only these signals (comma-separated names)")->delimiter(',');
   cmd->add_option("--bus", args->bus, "only frames from this interface, e.g. can0 (default: all)");

@@ -75,7 +75,7 @@ int Run(const ReplayArgs& a) {
 void Register(CLI::App& parent, int& exit_code) {
   auto args = std::make_shared<ReplayArgs>();
   auto* cmd = parent.add_subcommand(
-      "replay", "Replay recorded drives (candump -l logs) through the estimator: EG ± sigma, adequacy, report");
+      "replay", "Replay recorded drives (CAN logs: candump, ASC, BLF, MF4) through the estimator: EG ± sigma, adequacy, report");
   auto* config_opt = cmd->add_option("--config", args->config,
                                      "Vehicle configuration (YAML); given alone, its source.logs are replayed")
                          ->capture_default_str();
