@@ -33,6 +33,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
       }
       if (r.state == can::SourceState::kEnd) break;
     }
+    if (!reader.io_error().empty()) out.input_errors.push_back(path + ": " + reader.io_error());
     const auto& c = reader.counters();
     out.source.frames += c.frames;
     out.source.malformed += c.malformed;

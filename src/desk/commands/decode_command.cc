@@ -106,6 +106,10 @@ int Run(const DecodeArgs& a) {
   for (const auto& m : reader.first_malformed()) {
     std::cerr << "  " << a.log << ":" << m.line << ": " << m.reason << "\n";
   }
+  if (!reader.io_error().empty()) {
+    std::cerr << "ndsid decode: " << a.log << ": not read to its end: " << reader.io_error() << "\n";
+    return kExitIo;
+  }
   return 0;
 }
 
