@@ -10,7 +10,7 @@
 
 #include "ndsid/config/config.h"
 #include "ndsid/dbc/dbc_parser.h"
-#include "pipeline.h"
+#include "ndsid/pipeline/pipeline.h"
 #include "state_store.h"
 
 namespace {
@@ -18,7 +18,7 @@ namespace {
 struct Fixture {
   ndsid::config::Config config = ndsid::config::LoadConfig(NDSID_SOURCE_DIR "/config/example_vehicle.yaml");
   ndsid::dbc::Database db = ndsid::dbc::ParseDbcFile(config.dbc);
-  ndsid::app::Pipeline pipeline{config, db};
+  ndsid::pipeline::Pipeline pipeline{config, db};
 };
 
 }  // namespace
@@ -31,14 +31,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (data[0] % 2 == 1) {
     char checksum[17];
     std::snprintf(checksum, sizeof checksum, "%016llx",
-                  static_cast<unsigned long long>(ndsid::app::Fnv1a64(bytes)));
-    bytes = "NDSID-STATE " + std::to_string(ndsid::app::kStateFormatVersion) + "\nvehicle " + vehicle +
+                  static_cast<unsigned long long>(ndsid::service::Fnv1a64(bytes)));
+    bytes = "NDSID-STATE " + std::to_string(ndsid::service::kStateFormatVersion) + "\nvehicle " + vehicle +
             "\npayload_bytes " + std::to_string(bytes.size()) + "\npayload_fnv1a64 " + checksum + "\n\n" + bytes;
   }
   try {
-    const ndsid::app::LearnedState st = ndsid::app::DecodeState(bytes, vehicle);
+    const ndsid::service::LearnedState st = ndsid::service::DecodeState(bytes, vehicle);
     std::string dropped;
-    ndsid::app::RestoreState(f->pipeline, f->config, st, dropped);
+    ndsid::service::RestoreState(f->pipeline, f->config, st, dropped);
   } catch (const ndsid::Error&) {
   }
   return 0;
