@@ -110,7 +110,10 @@ struct Daemon::Impl {
   int64_t restored_data_time_ns = std::numeric_limits<int64_t>::min();  // log frames up to this are learned
   uint64_t skipped_resume = 0;
   can::SourceState source_state = can::SourceState::kOk;
-  int64_t last_status_ns = 0, last_watchdog_ns = 0, last_persist_ns = 0, last_persist_done_ns = -1;
+  int64_t last_status_ns = 0, last_watchdog_ns = 0, last_persist_ns = 0;
+  // Written by the persist thread, read by the reading thread for the status: atomic (it was a
+  // plain int64_t, a data race).
+  std::atomic<int64_t> last_persist_done_ns{-1};
   int64_t pace_data0_ns = 0, pace_wall0_ns = -1;
   std::optional<pipeline::Estimate> final_estimate;
 
@@ -259,7 +262,8 @@ struct Daemon::Impl {
 
   void PublishStatus() {
     SourceView v{source->Describe(), source_state, source->counters(), skipped_resume};
-    const double age = last_persist_done_ns < 0 ? -1.0 : (MonoNs() - last_persist_done_ns) * 1e-9;
+    const int64_t persisted_ns = last_persist_done_ns.load();
+    const double age = persisted_ns < 0 ? -1.0 : (MonoNs() - persisted_ns) * 1e-9;
     sink->PublishStatus(MakeStatusMessage(pipe(), cfg(), v, job.has_value(), age));
   }
 
