@@ -33,6 +33,10 @@ run_one() {  # name seconds build-dir
     "$bin" "${args[@]}" "$corpus" "${seeds[@]}" >"$log" 2>&1 || rc=$?
   local runs
   runs="$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1 || true)"
+  if [[ $rc -eq 72 ]]; then  # libFuzzer's exit code when interrupted (SIGINT/SIGTERM): no finding
+    echo "$name: interrupted after ${runs:-?} executions, no finding"
+    return 1
+  fi
   if [[ $rc -ne 0 ]]; then
     echo "$name: FINDING after ${runs:-?} executions (exit $rc); log $log, input in $findings/"
     grep -m3 -E 'ERROR|runtime error|SUMMARY' "$log" || true
