@@ -19,7 +19,7 @@ DEB_PACKAGES=(
   libbenchmark-dev nlohmann-json3-dev zlib1g-dev
   can-utils iproute2 systemd
   libjchart2d-java xvfb file unzip          # ndsid-lcm-spy's charts; tests/package (xvfb-run, dpkg-deb checks)
-  clang libfuzzer-14-dev libclang-rt-14-dev
+  clang libfuzzer-14-dev libclang-rt-14-dev       # scripts/fuzz.sh (libFuzzer, ASan, UBSan)
   python3 python3-venv python3-pip
 )
 

@@ -3,9 +3,14 @@
 #   scripts/test.sh           every test except those labelled "long" (the CI default)
 #   scripts/test.sh --all     everything, including the long accuracy studies
 #   extra arguments go to ctest (e.g. -R Dbc)
+# With clang present it also builds the fuzz targets (build-fuzz/, scripts/fuzz.sh --build), so
+# the label "fuzz" runs each for 20 s (docs/reliability.md); NDSID_SKIP_FUZZ=1 leaves that out.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$here/scripts/setup.sh"
+if [[ "${NDSID_SKIP_FUZZ:-0}" != 1 ]] && command -v clang++ >/dev/null; then
+  "$here/scripts/fuzz.sh" --build
+fi
 args=(-LE long)
 if [[ "${1:-}" == "--all" ]]; then args=(); shift; fi
 cd "${NDSID_BUILD_DIR:-$here/build}"

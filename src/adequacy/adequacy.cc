@@ -49,6 +49,7 @@ Report Tracker::Update(double hours, double eg, double eg_se, const stats::Cover
   if (found && eg != 0) r.rel_change = std::abs(eg - eg_then) / std::abs(eg);
   if (eg != 0) r.rel_se = eg_se / std::abs(eg);
   history_.push_back({hours, eg, eg_se, r.kl_growth});
+  if (history_.size() > kMaxHistoryPoints) history_.erase(history_.begin());  // bounded: oldest goes
 
   // Keep coverage snapshots a quarter window apart, and only as far back as needed.
   if (snapshots_.empty() || hours - snapshots_.back().hours >= config_.change_window_h / 4) {
@@ -104,9 +105,19 @@ void Tracker::Deserialize(const std::string& text) {
   std::istringstream is(text);
   size_t n = 0;
   is >> n;
-  if (is.fail() || n > 10'000'000) throw Error("adequacy state: bad history length");
-  std::vector<EgPoint> history(n);
-  for (EgPoint& p : history) is >> p.gated_hours >> p.eg >> p.eg_se >> p.kl;
+  if (is.fail()) throw Error("adequacy state: bad history length");
+  if (n > kMaxHistoryPoints) {
+    throw Error("adequacy state: history of " + std::to_string(n) + " points, more than the limit of " +
+                std::to_string(kMaxHistoryPoints));
+  }
+  std::vector<EgPoint> history;
+  history.reserve(std::min<size_t>(n, 4096));  // grows with what is really there, not with the claim
+  for (size_t i = 0; i < n; ++i) {
+    EgPoint p;
+    is >> p.gated_hours >> p.eg >> p.eg_se >> p.kl;
+    if (is.fail()) throw Error("adequacy state: history truncated at point " + std::to_string(i) + " of " + std::to_string(n));
+    history.push_back(p);
+  }
   size_t ns = 0;
   is >> ns;
   if (is.fail() || ns > 10'000) throw Error("adequacy state: bad snapshot count");

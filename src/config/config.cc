@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 
 #include "ndsid/common/atomic_file.h"
@@ -14,6 +15,7 @@ namespace ndsid::config {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
+constexpr size_t kMaxConfigBytes = 16 << 20;  // a vehicle YAML is a few kB
 
 struct RoleInfo {
   const char* key;
@@ -32,17 +34,30 @@ std::string Resolve(const std::string& base_dir, const std::string& p) {
   return (std::filesystem::path(base_dir) / p).lexically_normal().string();
 }
 
+std::string Shortest(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
 void CheckRange(const YamlReader& r, const std::string& key, double v, double lo, double hi) {
   if (!(v >= lo && v <= hi)) {
-    r.Fail(key, "value " + std::to_string(v) + " out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    r.Fail(key, "value " + Shortest(v) + " out of range [" + Shortest(lo) + ", " + Shortest(hi) + "]");
   }
 }
 
-double Positive(const YamlReader& r, const std::string& key, double fallback) {
+// Every number of the configuration is range-checked where it is read (docs/configuration.md
+// lists the ranges): an absurd value (status_rate_hz: 1e-300, sync.latency_s: 1e15) would
+// otherwise overflow a conversion to a period or a count later.
+double Ranged(const YamlReader& r, const std::string& key, double fallback, double lo, double hi) {
   const double v = r.Number(key, fallback);
-  if (!(v > 0)) r.Fail(key, "must be > 0");
+  CheckRange(r, key, v, lo, hi);
   return v;
 }
+
+constexpr double kMaxTimeoutS = 60;             // signal staleness
+constexpr double kMaxPhysical = 1e12;           // formula parameter bounds, prior values
+constexpr double kMaxParameterBound = 1e9;      // m, Jz, cv, ch, lv, is box
 
 SignalRef ReadRef(const YamlReader& r) { return {r.String("message"), r.String("signal")}; }
 
@@ -53,7 +68,7 @@ RoleSignal ReadRole(const YamlReader& parent, Role role) {
   s.line = parent.Line(RoleKey(role));
   if (RoleIsFlag(role)) {
     s.active_values = r.Numbers("active_values", {1.0});
-    s.timeout_s = Positive(r, "timeout_s", 0.5);
+    s.timeout_s = Ranged(r, "timeout_s", 0.5, 1e-3, kMaxTimeoutS);
   } else {
     s.unit = r.String("unit");
     const double sign = r.Number("sign", 1.0);
@@ -63,7 +78,7 @@ RoleSignal ReadRole(const YamlReader& parent, Role role) {
     } catch (const ConfigError& e) {
       r.Fail("unit", e.what());
     }
-    s.timeout_s = Positive(r, "timeout_s", 0.1);
+    s.timeout_s = Ranged(r, "timeout_s", 0.1, 1e-3, kMaxTimeoutS);
     s.latency_s = r.Number("latency_s", 0.0);
     CheckRange(r, "latency_s", s.latency_s, -0.2, 0.5);
     if (role == Role::kLateralAcceleration && s.latency_s != 0.0) {
@@ -90,9 +105,9 @@ void ReadParams(const YamlReader& r, const VehicleConfig& vehicle, Identificatio
     p.fixed = (i == 0);
     if (params.Has(defaults[i].key)) {
       const YamlReader pr = params.Child(defaults[i].key);
-      p.lower = pr.Number("min", p.lower);
-      p.upper = pr.Number("max", p.upper);
-      p.initial = pr.Number("initial", 0.0);
+      p.lower = Ranged(pr, "min", p.lower, 0, kMaxParameterBound);
+      p.upper = Ranged(pr, "max", p.upper, 0, kMaxParameterBound);
+      p.initial = Ranged(pr, "initial", 0.0, 0, kMaxParameterBound);
       p.fixed = pr.Bool("fixed", p.fixed);
       pr.Finish();
       if (!(p.lower > 0 && p.upper > p.lower)) params.Fail(defaults[i].key, "needs 0 < min < max");
@@ -149,7 +164,9 @@ double UnitToSi(Role role, const std::string& unit) {
   throw ConfigError("unknown unit '" + unit + "' for " + RoleKey(role));
 }
 
-Config ParseConfig(const std::string& yaml_text, const std::string& path) {
+namespace {
+
+Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
@@ -213,7 +230,7 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
         ValiditySignal v;
         v.ref = ReadRef(vr);
         v.valid_values = vr.Numbers("valid_values", {1.0});
-        v.timeout_s = Positive(vr, "timeout_s", 0.2);
+        v.timeout_s = Ranged(vr, "timeout_s", 0.2, 1e-3, kMaxTimeoutS);
         v.line = item.Mark().line + 1;
         vr.Finish();
         c.validity.push_back(v);
@@ -223,25 +240,25 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
   }
   if (top.Has("sync")) {
     const YamlReader s = top.Child("sync");
-    c.sync.rate_hz = Positive(s, "rate_hz", c.sync.rate_hz);
-    CheckRange(s, "rate_hz", c.sync.rate_hz, 10, 1000);
-    c.sync.latency_s = Positive(s, "latency_s", c.sync.latency_s);
-    c.sync.max_fill_gap_s = Positive(s, "max_fill_gap_s", c.sync.max_fill_gap_s);
+    c.sync.rate_hz = Ranged(s, "rate_hz", c.sync.rate_hz, 10, 1000);
+    c.sync.latency_s = Ranged(s, "latency_s", c.sync.latency_s, 1e-3, 10);
+    c.sync.max_fill_gap_s = Ranged(s, "max_fill_gap_s", c.sync.max_fill_gap_s, 1e-3, 3600);
     s.Finish();
   }
   if (top.Has("gate")) {
     const YamlReader g = top.Child("gate");
     GateConfig& gc = c.gate;
-    gc.min_speed_mps = Positive(g, "min_speed_mps", gc.min_speed_mps);
-    gc.standstill_speed_mps = Positive(g, "standstill_speed_mps", gc.standstill_speed_mps);
-    gc.standstill_min_s = Positive(g, "standstill_min_s", gc.standstill_min_s);
-    gc.max_abs_lat_accel_mps2 = Positive(g, "max_abs_lat_accel_mps2", gc.max_abs_lat_accel_mps2);
-    gc.drive_gap_s = Positive(g, "drive_gap_s", gc.drive_gap_s);
-    gc.min_drive_km = g.Number("min_drive_km", gc.min_drive_km);
-    CheckRange(g, "min_drive_km", gc.min_drive_km, 0, 1000);
-    gc.min_segment_s = Positive(g, "min_segment_s", gc.min_segment_s);
-    gc.quasi_steady_max_steer_rate_radps = Positive(g, "quasi_steady_max_steer_rate_radps", gc.quasi_steady_max_steer_rate_radps);
-    gc.quasi_steady_max_yaw_accel_radps2 = Positive(g, "quasi_steady_max_yaw_accel_radps2", gc.quasi_steady_max_yaw_accel_radps2);
+    gc.min_speed_mps = Ranged(g, "min_speed_mps", gc.min_speed_mps, 0.1, 100);
+    gc.standstill_speed_mps = Ranged(g, "standstill_speed_mps", gc.standstill_speed_mps, 1e-3, 10);
+    gc.standstill_min_s = Ranged(g, "standstill_min_s", gc.standstill_min_s, 1e-3, 3600);
+    gc.max_abs_lat_accel_mps2 = Ranged(g, "max_abs_lat_accel_mps2", gc.max_abs_lat_accel_mps2, 0.1, 30);
+    gc.drive_gap_s = Ranged(g, "drive_gap_s", gc.drive_gap_s, 0.1, 86400);
+    gc.min_drive_km = Ranged(g, "min_drive_km", gc.min_drive_km, 0, 1000);
+    gc.min_segment_s = Ranged(g, "min_segment_s", gc.min_segment_s, 0.01, 3600);
+    gc.quasi_steady_max_steer_rate_radps =
+        Ranged(g, "quasi_steady_max_steer_rate_radps", gc.quasi_steady_max_steer_rate_radps, 1e-6, 100);
+    gc.quasi_steady_max_yaw_accel_radps2 =
+        Ranged(g, "quasi_steady_max_yaw_accel_radps2", gc.quasi_steady_max_yaw_accel_radps2, 1e-6, 100);
     g.Finish();
   }
   {
@@ -249,26 +266,25 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
                                                    : YamlReader(YAML::Node(), path, "identification");
     IdentificationConfig& ic = c.identification;
     ReadParams(id, c.vehicle, ic);
-    ic.rate_hz = Positive(id, "rate_hz", ic.rate_hz);
-    CheckRange(id, "rate_hz", ic.rate_hz, 10, 200);
-    ic.burn_in_s = Positive(id, "burn_in_s", ic.burn_in_s);
-    ic.chunk_s = Positive(id, "chunk_s", ic.chunk_s);
+    ic.rate_hz = Ranged(id, "rate_hz", ic.rate_hz, 10, 200);
+    ic.burn_in_s = Ranged(id, "burn_in_s", ic.burn_in_s, 1e-3, 600);
+    ic.chunk_s = Ranged(id, "chunk_s", ic.chunk_s, 0.1, 3600);
     if (ic.chunk_s <= 2 * ic.burn_in_s) id.Fail("chunk_s", "must exceed twice burn_in_s");
-    ic.window_h = Positive(id, "window_h", ic.window_h);
-    ic.period_s = Positive(id, "period_s", ic.period_s);
-    ic.validation_fraction = id.Number("validation_fraction", ic.validation_fraction);
-    CheckRange(id, "validation_fraction", ic.validation_fraction, 0.0, 0.9);
+    ic.window_h = Ranged(id, "window_h", ic.window_h, 1e-3, 1e5);
+    ic.period_s = Ranged(id, "period_s", ic.period_s, 1, 1e7);
+    ic.validation_fraction = Ranged(id, "validation_fraction", ic.validation_fraction, 0.0, 0.9);
     ic.max_iterations = id.Integer("max_iterations", ic.max_iterations);
+    CheckRange(id, "max_iterations", ic.max_iterations, 1, 100000);
     ic.threads = id.Integer("threads", ic.threads);
-    if (ic.threads < 1) id.Fail("threads", "must be >= 1");
+    CheckRange(id, "threads", ic.threads, 1, 256);
     id.Finish();
   }
   if (top.Has("adequacy")) {
     const YamlReader a = top.Child("adequacy");
-    c.adequacy.tolerance = Positive(a, "tolerance", c.adequacy.tolerance);
-    c.adequacy.hold_h = Positive(a, "hold_h", c.adequacy.hold_h);
-    c.adequacy.change_window_h = Positive(a, "change_window_h", c.adequacy.change_window_h);
-    c.adequacy.kl_threshold = Positive(a, "kl_threshold", c.adequacy.kl_threshold);
+    c.adequacy.tolerance = Ranged(a, "tolerance", c.adequacy.tolerance, 1e-6, 1);
+    c.adequacy.hold_h = Ranged(a, "hold_h", c.adequacy.hold_h, 1e-3, 1e5);
+    c.adequacy.change_window_h = Ranged(a, "change_window_h", c.adequacy.change_window_h, 1e-3, 1e5);
+    c.adequacy.kl_threshold = Ranged(a, "kl_threshold", c.adequacy.kl_threshold, 1e-9, 100);
     a.Finish();
   }
   if (top.Has("lcm")) {
@@ -277,8 +293,8 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
     c.lcm.estimate_channel = l.String("estimate_channel", c.lcm.estimate_channel);
     c.lcm.status_channel = l.String("status_channel", c.lcm.status_channel);
     c.lcm.monitor_channel = l.String("monitor_channel", c.lcm.monitor_channel);
-    c.lcm.status_rate_hz = Positive(l, "status_rate_hz", c.lcm.status_rate_hz);
-    c.lcm.monitor_rate_hz = Positive(l, "monitor_rate_hz", c.lcm.monitor_rate_hz);
+    c.lcm.status_rate_hz = Ranged(l, "status_rate_hz", c.lcm.status_rate_hz, 0.01, 1000);
+    c.lcm.monitor_rate_hz = Ranged(l, "monitor_rate_hz", c.lcm.monitor_rate_hz, 0.01, 1000);
     l.Finish();
   }
   if (top.Has("model")) {
@@ -291,6 +307,7 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
         const YamlReader f = fs.Child(name);
         FormulaSpec spec;
         spec.name = name;
+        spec.file = path;
         spec.line = fs.Line(name);
         for (const char* target : {"a_y_meas", "beta_dot", "r_dot"}) {
           if (f.Has(target)) {
@@ -310,9 +327,11 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
             FormulaParam fp;
             fp.name = pname;
             fp.lower = pr.Number("min");
+            CheckRange(pr, "min", fp.lower, -kMaxPhysical, kMaxPhysical);
             fp.upper = pr.Number("max");
-            fp.neutral = pr.Number("neutral", 0.0);
-            fp.initial = pr.Number("initial", fp.neutral);
+            CheckRange(pr, "max", fp.upper, -kMaxPhysical, kMaxPhysical);
+            fp.neutral = Ranged(pr, "neutral", 0.0, -kMaxPhysical, kMaxPhysical);
+            fp.initial = Ranged(pr, "initial", fp.neutral, -kMaxPhysical, kMaxPhysical);
             fp.unit = pr.String("unit", "-");
             pr.Finish();
             if (!(fp.upper > fp.lower) || fp.initial < fp.lower || fp.initial > fp.upper) {
@@ -340,7 +359,9 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
         config::ParameterPrior prior;
         prior.name = name;
         prior.value = pr.Number("value");
+        CheckRange(pr, "value", prior.value, -kMaxPhysical, kMaxPhysical);
         prior.sd = pr.Number("sd");
+        CheckRange(pr, "sd", prior.sd, 0, kMaxPhysical);
         prior.location = path + ":" + std::to_string(ps.Line(name));
         pr.Finish();
         if (!(prior.sd > 0) || !std::isfinite(prior.value)) ps.Fail(name, "a prior needs a finite value and sd > 0");
@@ -365,10 +386,20 @@ Config ParseConfig(const std::string& yaml_text, const std::string& path) {
   return c;
 }
 
+}  // namespace
+
+Config ParseConfig(const std::string& yaml_text, const std::string& path) {
+  try {
+    return ParseConfigText(yaml_text, path);
+  } catch (const YAML::Exception& e) {  // e.g. a complex key ("? [a, b]") read as a string
+    throw ConfigError(FormatLocation(path, e.mark.line + 1, e.mark.column + 1, "YAML: " + e.msg));
+  }
+}
+
 Config LoadConfig(const std::string& path) {
   std::string text;
   try {
-    text = ReadWholeFile(path);
+    text = ReadWholeFile(path, kMaxConfigBytes);
   } catch (const Error& e) {
     throw ConfigError(e.what());
   }

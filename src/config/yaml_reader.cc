@@ -90,7 +90,10 @@ std::vector<double> YamlReader::Numbers(const std::string& key, const std::vecto
   if (!n) return fallback;
   if (!n->IsSequence()) FailAt(*n, key, "expected a list of numbers");
   std::vector<double> out;
-  for (const auto& item : *n) out.push_back(As<double>(item, key, "a number"));
+  for (const auto& item : *n) {
+    out.push_back(As<double>(item, key, "a number"));
+    if (!std::isfinite(out.back())) FailAt(item, key, "must be finite");
+  }
   return out;
 }
 
@@ -109,6 +112,10 @@ std::optional<YAML::Node> YamlReader::Raw(const std::string& key) const { return
 void YamlReader::Finish() const {
   if (!node_ || !node_.IsMap()) return;
   for (const auto& kv : node_) {
+    if (!kv.first.IsScalar()) {
+      throw ConfigError(FormatLocation(file_, kv.first.Mark().line + 1, kv.first.Mark().column + 1,
+                                       (path_.empty() ? std::string("top level") : path_) + ": a key must be a plain name"));
+    }
     const std::string key = kv.first.as<std::string>();
     if (!used_.count(key)) {
       throw ConfigError(FormatLocation(file_, kv.first.Mark().line + 1, kv.first.Mark().column + 1,

@@ -4,6 +4,7 @@
 #include "ndsid/dbc/dbc_parser.h"
 
 #include <cerrno>
+#include <cmath>
 #include <charconv>
 #include <cstring>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include <unordered_map>
 
 #include "bit_layout.h"
+#include "ndsid/common/atomic_file.h"
 #include "dbc_checks.h"
 #include "dbc_lexer.h"
 #include "dbc_logger.h"
@@ -141,14 +143,21 @@ class Parser {
     if (r.ec != std::errc() || r.ptr != s.data() + s.size()) Fail(t, "expected an unsigned integer, got " + Describe(t));
     return v;
   }
+  // An integer: exact in the whole int64 range ("9223372036854775807"); a number written as a
+  // float ("3.0", "1e3") must be integral and within int64 (no float-to-integer overflow).
   int64_t ParseInteger(const Token& t) {
-    const double v = ParseDouble(t);
-    if (v != static_cast<double>(static_cast<int64_t>(v))) Fail(t, "expected an integer, got " + Describe(t));
-    int64_t i = 0;
+    if (t.kind != TokenKind::kNumber) Fail(t, "expected an integer, got " + Describe(t));
     std::string_view s = t.text;
     if (!s.empty() && s[0] == '+') s.remove_prefix(1);
-    const auto r = std::from_chars(s.data(), s.data() + s.size(), i);  // exact for large values
-    return (r.ec == std::errc() && r.ptr == s.data() + s.size()) ? i : static_cast<int64_t>(v);
+    int64_t i = 0;
+    const auto r = std::from_chars(s.data(), s.data() + s.size(), i);
+    if (r.ec == std::errc() && r.ptr == s.data() + s.size()) return i;
+    const double v = ParseDouble(t);
+    constexpr double kTwo63 = 9223372036854775808.0;  // 2^63, exactly representable
+    if (!(v >= -kTwo63 && v < kTwo63) || v != std::trunc(v)) {
+      Fail(t, "expected an integer within 64 bits, got " + Describe(t));
+    }
+    return static_cast<int64_t>(v);
   }
   uint32_t ParseMessageId(const Token& t) {
     const uint64_t id = ParseUnsigned(t);
@@ -400,8 +409,9 @@ class Parser {
     p.signal = std::string(Expect(TokenKind::kIdentifier, "a signal name").text);
     AcceptPunct(':');
     p.type_token = lex_.Next();
-    p.type = static_cast<int>(ParseUnsigned(p.type_token));
-    if (p.type > 2) Fail(p.type_token, "SIG_VALTYPE_ must be 0, 1 (float32) or 2 (float64)");
+    const uint64_t type = ParseUnsigned(p.type_token);
+    if (type > 2) Fail(p.type_token, "SIG_VALTYPE_ must be 0, 1 (float32) or 2 (float64)");
+    p.type = static_cast<int>(type);
     EndStatement(vt);
     refs_.value_types.push_back(std::move(p));
   }
@@ -421,11 +431,14 @@ Database ParseDbcText(std::string_view text, const std::string& file_name_for_me
 }
 
 Database ParseDbcFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DbcError(path, 0, 0, std::string("cannot open DBC file: ") + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  Database db = ParseDbcText(text.str(), path);
+  constexpr size_t kMaxDbcBytes = 64 << 20;  // 64 MiB; the largest real DBCs are a few MB
+  std::string text;
+  try {
+    text = ReadWholeFile(path, kMaxDbcBytes);
+  } catch (const Error& e) {
+    throw DbcError(path, 0, 0, std::string("DBC file: ") + e.what());
+  }
+  Database db = ParseDbcText(text, path);
   auto log = internal::Logger();
   size_t signals = 0;
   for (const auto& m : db.messages) signals += m.signals.size();

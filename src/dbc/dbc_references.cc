@@ -20,9 +20,11 @@ class Resolver {
     }
     Message& m = db_.messages[it->second];
     if (r.signal.empty()) return {&m, nullptr};
-    for (auto& s : m.signals) {
-      if (s.name == r.signal) return {&m, &s};
+    auto [index, fresh] = by_name_.try_emplace(&m);
+    if (fresh) {  // built once per message: lookups stay O(1) however many signals it has
+      for (auto& s : m.signals) index->second.emplace(s.name, &s);  // the first of a duplicated name
     }
+    if (const auto s = index->second.find(r.signal); s != index->second.end()) return {&m, s->second};
     Warn(r.at, std::string(what) + " for signal " + r.signal + ", which message " + m.name + " does not have: ignored");
     return {nullptr, nullptr};
   }
@@ -32,6 +34,7 @@ class Resolver {
 
   Database& db_;
   const std::unordered_map<uint32_t, size_t>& by_raw_id_;
+  std::unordered_map<const Message*, std::unordered_map<std::string_view, Signal*>> by_name_;
 };
 
 }  // namespace

@@ -22,7 +22,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    const int rc = app.exit(e);  // --help: 0; a bad command line is bad configuration, as in ndsidd
+    return rc == 0 ? 0 : ndsid::kExitConfig;
   } catch (const ndsid::ConfigError& e) {
     spdlog::error("{}", e.what());
     return ndsid::kExitConfig;

@@ -36,6 +36,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
       }
       if (r.state == can::SourceState::kEnd) break;
     }
+    if (!reader.io_error().empty()) out.input_errors.push_back(path + ": " + reader.io_error());
     const auto& c = reader.counters();
     if (!reader.io_error().empty()) {  // a truncated or corrupt file is never taken as complete
       throw Error(path + ": reading stopped after " + std::to_string(c.frames) + " frames: " + reader.io_error());

@@ -25,6 +25,7 @@ struct ReplayOutcome {
   std::optional<pipeline::Estimate> final_estimate;
   std::vector<pipeline::Estimate> history;
   std::optional<double> truth_eg;  // from a truth.yaml beside the log, if any
+  std::vector<std::string> input_errors;  // "path: reason" of each log not read to its end
 };
 
 // Replays the logs through `pipeline` (built from `config`); throws Error at set-up only

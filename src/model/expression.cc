@@ -1,5 +1,6 @@
 #include "ndsid/model/expression.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cstdlib>
 #include <functional>
@@ -12,6 +13,9 @@ class Parser {
   Parser(const std::string& text, const std::vector<std::string>& vars) : s_(text), vars_(vars) {}
 
   std::unique_ptr<ExprNode> Parse() {
+    if (s_.size() > Expression::kMaxChars) {
+      Fail(std::to_string(s_.size()) + " characters, more than the limit of " + std::to_string(Expression::kMaxChars));
+    }
     auto n = Sum();
     Skip();
     if (pos_ < s_.size()) Fail("unexpected '" + std::string(1, s_[pos_]) + "'");
@@ -20,7 +24,27 @@ class Parser {
 
  private:
   [[noreturn]] void Fail(const std::string& msg) const {
-    throw ConfigError("expression '" + s_ + "', column " + std::to_string(pos_ + 1) + ": " + msg);
+    constexpr size_t kQuoted = 60;  // a long text is cut in the message; the column locates
+    const std::string quoted = s_.size() <= kQuoted ? s_ : s_.substr(0, kQuoted) + "...";
+    throw ConfigError("expression '" + quoted + "', column " + std::to_string(pos_ + 1) + ": " + msg);
+  }
+  // Bounds the parser's recursion (parentheses, calls, unary signs) at kMaxDepth.
+  class Nest {
+   public:
+    explicit Nest(Parser& p) : p_(p) {
+      if (++p_.nesting_ > Expression::kMaxDepth) {
+        --p_.pos_;  // point at the parenthesis, sign or '^' just read
+        p_.FailDepth();
+      }
+    }
+    ~Nest() { --p_.nesting_; }
+
+   private:
+    Parser& p_;
+  };
+  [[noreturn]] void FailDepth() const {
+    Fail("nested deeper than " + std::to_string(Expression::kMaxDepth) +
+         " levels (parentheses, calls, signs and each chained operator count)");
   }
   void Skip() {
     while (pos_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[pos_]))) ++pos_;
@@ -33,11 +57,13 @@ class Parser {
     }
     return false;
   }
-  static std::unique_ptr<ExprNode> Make(ExprNode::Kind k, std::unique_ptr<ExprNode> a, std::unique_ptr<ExprNode> b) {
+  std::unique_ptr<ExprNode> Make(ExprNode::Kind k, std::unique_ptr<ExprNode> a, std::unique_ptr<ExprNode> b) const {
     auto n = std::make_unique<ExprNode>();
     n->kind = k;
+    n->depth = 1 + std::max(a ? a->depth : 0, b ? b->depth : 0);
     n->a = std::move(a);
     n->b = std::move(b);
+    if (n->depth > Expression::kMaxDepth) FailDepth();  // evaluation would recurse this deep
     return n;
   }
   std::unique_ptr<ExprNode> Sum() {
@@ -57,13 +83,22 @@ class Parser {
     }
   }
   std::unique_ptr<ExprNode> Unary() {
-    if (Eat('-')) return Make(ExprNode::Kind::kNeg, Unary(), nullptr);
-    if (Eat('+')) return Unary();
+    if (Eat('-')) {
+      const Nest nest(*this);
+      return Make(ExprNode::Kind::kNeg, Unary(), nullptr);
+    }
+    if (Eat('+')) {
+      const Nest nest(*this);
+      return Unary();
+    }
     return Power();
   }
   std::unique_ptr<ExprNode> Power() {
     auto base = Atom();
-    if (Eat('^')) return Make(ExprNode::Kind::kPow, std::move(base), Unary());  // right-associative
+    if (Eat('^')) {  // right-associative: recurses
+      const Nest nest(*this);
+      return Make(ExprNode::Kind::kPow, std::move(base), Unary());
+    }
     return base;
   }
   std::unique_ptr<ExprNode> Atom() {
@@ -71,6 +106,7 @@ class Parser {
     if (pos_ >= s_.size()) Fail("unexpected end of expression");
     const char c = s_[pos_];
     if (Eat('(')) {
+      const Nest nest(*this);
       auto n = Sum();
       if (!Eat(')')) Fail("expected ')'");
       return n;
@@ -98,6 +134,7 @@ class Parser {
           pos_ = start;
           Fail("unknown function '" + name + "' (known: sin cos tan tanh exp log sqrt abs)");
         }
+        const Nest nest(*this);
         auto n = Make(ExprNode::Kind::kCall, Sum(), nullptr);
         n->function = name;
         if (!Eat(')')) Fail("expected ')' after the argument of " + name);
@@ -122,6 +159,7 @@ class Parser {
   const std::string& s_;
   const std::vector<std::string>& vars_;
   size_t pos_ = 0;
+  int nesting_ = 0;
 };
 
 bool UsesVariable(const ExprNode& n, int v) {

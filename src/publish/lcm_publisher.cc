@@ -173,8 +173,68 @@ std::string EncodeEstimate(const EstimateMessage& m) { return Encode(ToLcm(m)); 
 std::string EncodeStatus(const StatusMessage& m) { return Encode(ToLcm(m)); }
 std::string EncodeMonitor(const MonitorMessage& m) { return Encode(ToLcm(m)); }
 
+namespace {
+
+// lcm-gen's decode sizes its arrays from the counts in the buffer before reading them, so a
+// crafted count (negative, or 10^9) would make it allocate without limit. This walks the
+// encoded estimate_t (big-endian, strings as int32 length incl. NUL + bytes) up to each count and
+// checks it (and every string length >= 1) against kMaxDecodedElements and against the bytes left (every element takes >= 1).
+class EstimateLayoutCheck {
+ public:
+  explicit EstimateLayoutCheck(const std::string& b) : b_(b) {}
+  bool Ok() {
+    Skip(8 + 8 + 8);  // fingerprint, utime, publish_utime
+    String();         // vehicle
+    Skip(4 + 1);      // identifications, valid
+    String();         // reason
+    Skip(4 * 8);      // eg, sigma (two units)
+    const int64_t n = Count();
+    for (int64_t i = 0; ok_ && i < n; ++i) String();  // param_name
+    for (int64_t i = 0; ok_ && i < n; ++i) String();  // param_unit
+    Skip(n * (8 + 8 + 1 + 1));                        // value, sigma, fixed, at_bound
+    Skip(2 * 8);                                      // rmse train / validation
+    String();                                         // se_method
+    Skip(2 * 8 + 2 * 4 + 1 + 3 * 8);                  // hours, segments, steady state
+    String();                                         // adequacy_state
+    Skip(4 * 8);
+    String();  // adequacy_explanation
+    const int64_t effects = Count();
+    for (int64_t i = 0; ok_ && i < effects; ++i) String();  // effects
+    return ok_;
+  }
+
+ private:
+  static constexpr int64_t kMaxDecodedElements = 4096;
+  int64_t Int32() {
+    if (!ok_ || b_.size() - pos_ < 4) return ok_ = false, 0;
+    const auto* p = reinterpret_cast<const unsigned char*>(b_.data() + pos_);
+    pos_ += 4;
+    return static_cast<int32_t>((uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | p[3]);
+  }
+  void Skip(int64_t n) {
+    if (!ok_ || n < 0 || static_cast<uint64_t>(n) > b_.size() - pos_) ok_ = false;
+    else pos_ += static_cast<size_t>(n);
+  }
+  void String() {  // lcm-gen assigns length - 1 bytes: a length below 1 must not reach it
+    const int64_t n = Int32();
+    if (n < 1) ok_ = false;
+    Skip(n);
+  }
+  int64_t Count() {
+    const int64_t n = Int32();
+    if (n < 0 || n > kMaxDecodedElements || static_cast<uint64_t>(n) > b_.size() - pos_) ok_ = false;
+    return ok_ ? n : 0;
+  }
+  const std::string& b_;
+  size_t pos_ = 0;
+  bool ok_ = true;
+};
+
+}  // namespace
+
 EstimateMessage DecodeEstimate(const std::string& bytes) {
   ndsid::estimate_t o;
+  if (!EstimateLayoutCheck(bytes).Ok()) throw Error("estimate_t: cannot decode (truncated or implausible counts)");
   if (o.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0) throw Error("estimate_t: cannot decode");
   EstimateMessage m;
   m.utime = o.utime;

@@ -111,12 +111,15 @@ struct Daemon::Impl {
     int64_t started_ns = 0;
   };
   std::optional<Job> job;
-  std::future<void> persist_job;
+  std::future<bool> persist_job;
   int32_t identifications = 0;
   int64_t restored_data_time_ns = std::numeric_limits<int64_t>::min();  // log frames up to this are learned
   uint64_t skipped_resume = 0;
   can::SourceState source_state = can::SourceState::kOk;
-  int64_t last_status_ns = 0, last_watchdog_ns = 0, last_persist_ns = 0, last_persist_done_ns = -1;
+  int64_t last_status_ns = 0, last_watchdog_ns = 0, last_persist_ns = 0;
+  // Written by the persist thread, read by the reading thread for the status: atomic (it was a
+  // plain int64_t, a data race).
+  std::atomic<int64_t> last_persist_done_ns{-1};
   int64_t pace_data0_ns = 0, pace_wall0_ns = -1;
   std::optional<pipeline::Estimate> final_estimate;
 
@@ -265,7 +268,8 @@ struct Daemon::Impl {
 
   void PublishStatus() {
     SourceView v{source->Describe(), source_state, source->counters(), skipped_resume};
-    const double age = last_persist_done_ns < 0 ? -1.0 : (MonoNs() - last_persist_done_ns) * 1e-9;
+    const int64_t persisted_ns = last_persist_done_ns.load();
+    const double age = persisted_ns < 0 ? -1.0 : (MonoNs() - persisted_ns) * 1e-9;
     sink->PublishStatus(MakeStatusMessage(pipe(), cfg(), v, job.has_value(), age));
   }
 
@@ -275,10 +279,11 @@ struct Daemon::Impl {
     return st;
   }
 
-  // Captures on the reading thread; writes on a helper thread unless `wait` (shutdown).
-  void Persist(bool wait) {
+  // Captures on the reading thread; writes on a helper thread unless `wait` (shutdown). With
+  // `wait`, returns whether the state was written.
+  bool Persist(bool wait) {
     if (persist_job.valid()) {
-      if (!wait && persist_job.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+      if (!wait && persist_job.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return true;
       persist_job.get();
     }
     last_persist_ns = MonoNs();
@@ -287,15 +292,24 @@ struct Daemon::Impl {
         store->Save(*st);
         last_persist_done_ns = MonoNs();
         spdlog::debug("learned state written to {} ({:.4f} gated h)", store->path(), st->data_time_ns * 1e-9);
+        return true;
       } catch (const std::exception& e) {
         spdlog::error("cannot write learned state: {}", e.what());
+        return false;
       }
     };
-    if (wait) {
-      write();
-    } else {
-      persist_job = std::async(std::launch::async, write);
-    }
+    if (wait) return write();
+    persist_job = std::async(std::launch::async, write);
+    return true;
+  }
+
+  // The exit code at the end: 0, or kExitIo (with the reason logged) when input was lost or the
+  // final save failed.
+  int ExitCode(bool saved) const {
+    const size_t input_errors = source_is_log ? static_cast<const LogSequence&>(*source).input_errors() : 0;
+    if (input_errors > 0) spdlog::error("exit {}: {} log file(s) could not be read to the end", kExitIo, input_errors);
+    if (!saved) spdlog::error("exit {}: the learned state could not be saved at exit", kExitIo);
+    return input_errors == 0 && saved ? 0 : kExitIo;
   }
 
   void Tick() {
@@ -381,7 +395,7 @@ struct Daemon::Impl {
     return end_of_data ? FinishData() : Stop();
   }
 
-  // End of the logs: final identification, persist, exit 0.
+  // End of the logs: final identification, persist, exit 0 (kExitIo: see ExitCode).
   int FinishData() {
     if (skipped_resume > 0) spdlog::info("skipped {} frames already in the learned state", skipped_resume);
     if (job) {
@@ -399,8 +413,7 @@ struct Daemon::Impl {
     PublishEstimate();
     PublishStatus();
     Notify("STOPPING=1");
-    Persist(true);
-    return 0;
+    return ExitCode(Persist(true));
   }
 
   // A stop request: persist first (a SIGKILL after the stop timeout then loses nothing), then
@@ -408,15 +421,15 @@ struct Daemon::Impl {
   int Stop() {
     Notify("STOPPING=1");
     spdlog::info("stopping: writing learned state to {}", store->path());
-    Persist(true);
+    bool saved = Persist(true);
     if (job) {
       spdlog::info("waiting for the running identification (started {:.1f} s ago)", (MonoNs() - job->started_ns) * 1e-9);
       job->result.wait();
       AcceptJob();
-      Persist(true);
+      saved = Persist(true);
     }
     final_estimate = pipe().last_estimate();
-    return 0;
+    return ExitCode(saved);
   }
 };
 

@@ -27,6 +27,7 @@ can::ReadResult LogSequence::Read(std::span<can::CanFrame> out, int /*timeout_ms
         spdlog::info("reading log {} ({} of {})", path, next_, paths_.size());
       } catch (const std::exception& e) {
         spdlog::error("skipping log {}: {}", path, e.what());
+        ++input_errors_;
         continue;
       }
     }
@@ -38,7 +39,10 @@ can::ReadResult LogSequence::Read(std::span<can::CanFrame> out, int /*timeout_ms
 
 void LogSequence::CloseCurrent() noexcept {
   const can::SourceCounters& c = current_->counters();
-  if (!current_->io_error().empty()) spdlog::error("log {}: stopped early: {}", current_->Describe(), current_->io_error());
+  if (!current_->io_error().empty()) {
+    spdlog::error("log {}: stopped early: {}", current_->Describe(), current_->io_error());
+    ++input_errors_;
+  }
   spdlog::info("{} done: {} frames, {} malformed records", current_->Describe(), c.frames, c.malformed);
   Add(finished_, c);
   current_.reset();

@@ -1,5 +1,7 @@
-// The daemon's log input: the log files (any format can::OpenFrameLog reads) of config.source.logs, one after another, as one
-// FrameSource (kEnd only after the last). A file that cannot be opened is logged and skipped.
+// The daemon's log input: the log files of config.source.logs (any format can::OpenFrameLog
+// reads), one after another, as one FrameSource (kEnd only after the last). A file that cannot be
+// opened is logged and skipped; both that and a file not read to its end count as input errors
+// (the daemon then exits 74).
 // Thread: the reading thread (the only reader of the frame source).
 #pragma once
 
@@ -19,6 +21,8 @@ class LogSequence final : public can::FrameSource {
   const can::SourceCounters& counters() const noexcept override;
   const std::vector<std::string>& bus_names() const noexcept override;
   std::string Describe() const override;
+  // Logs that could not be opened or were not read to their end (read error, truncated gzip).
+  size_t input_errors() const noexcept { return input_errors_; }
 
  private:
   void CloseCurrent() noexcept;
@@ -29,6 +33,7 @@ class LogSequence final : public can::FrameSource {
   can::SourceCounters finished_;       // of the files already read
   mutable can::SourceCounters total_;  // finished_ + current
   std::vector<std::string> no_buses_;
+  size_t input_errors_ = 0;
 };
 
 }  // namespace ndsid::service

@@ -73,5 +73,26 @@ TEST(AdequacyTracker, SerializeRoundTripKeepsHistory) {
   EXPECT_THROW(u.Deserialize("garbage"), Error);
 }
 
+// Catches: a state file claiming a 10-million-point history making the loader allocate it all
+// up front (320 MB before a byte is checked): the claim is refused with the limit named, and a
+// claim within the limit is only as large as the points really present.
+TEST(AdequacyTracker, DeserializeBoundsTheHistory) {
+  Tracker t(Cfg());
+  try {
+    t.Deserialize("10000000\n1 0.003 1e-6 -1\n");
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("history of 10000000 points, more than the limit of 100000"), std::string::npos)
+        << e.what();
+  }
+  try {
+    t.Deserialize("99999\n1 0.003 1e-6 -1\n2 0.003 1e-6 -1\n");
+    FAIL() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("history truncated at point 2 of 99999"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(t.history().empty()) << "a rejected state leaves the tracker untouched";
+}
+
 }  // namespace
 }  // namespace ndsid::adequacy

@@ -159,3 +159,33 @@ TEST(FormatLocation, NamesFileLineColumn) {
 
 }  // namespace
 }  // namespace ndsid
+
+namespace ndsid {
+namespace {
+
+// Catches: a read error swallowed by the stream (a directory read as an empty file, EIO as a
+// short file): ReadWholeFile must throw with the path and the reason.
+TEST(ReadWholeFile, ReadErrorIsReportedNotAnEmptyFile) {
+  const fs::path dir = fs::temp_directory_path() / "ndsid_read_whole_file_dir";
+  fs::create_directories(dir);
+  try {
+    ReadWholeFile(dir.string());
+    FAIL() << "a directory read as a file";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot read " + dir.string() + ": Is a directory"), std::string::npos) << e.what();
+  }
+  fs::remove(dir);
+}
+
+// Catches: an input larger than its limit loaded whole into memory.
+TEST(ReadWholeFile, LimitIsEnforced) {
+  const fs::path p = fs::temp_directory_path() / "ndsid_read_whole_file_limit";
+  WriteFileAtomically(p.string(), std::string(100'000, 'x'));
+  EXPECT_EQ(ReadWholeFile(p.string()).size(), 100'000u);
+  EXPECT_EQ(ReadWholeFile(p.string(), 100'000).size(), 100'000u);
+  EXPECT_THROW(ReadWholeFile(p.string(), 99'999), Error);
+  fs::remove(p);
+}
+
+}  // namespace
+}  // namespace ndsid

@@ -133,5 +133,36 @@ TEST(LcmPublisher, UnusableUrlIsAConfigurationError) {
   EXPECT_THROW(LcmPublisher("nosuchprovider://x", {}), ConfigError);
 }
 
+void PutInt32(std::string& b, size_t at, int32_t v) {
+  const auto u = static_cast<uint32_t>(v);
+  for (int i = 0; i < 4; ++i) b[at + i] = static_cast<char>(u >> (24 - 8 * i));
+}
+
+// Catches: lcm-gen's decode trusting the counts and lengths in the buffer: num_params = -1 or
+// 10^9 made it allocate without limit, a string length of 0 made it copy SIZE_MAX bytes.
+// DecodeEstimate must refuse such buffers with an Error, and every truncation of a good one.
+TEST(LcmPublisher, DecodeEstimateRefusesImplausibleCountsAndLengths) {
+  const std::string good = EncodeEstimate(SampleEstimate());
+  // fingerprint, utime, publish_utime, vehicle (4 + 13), identifications, valid, reason (4 + 1), 4 doubles
+  const size_t vehicle_at = 24, num_params_at = 24 + 17 + 4 + 1 + 5 + 32;
+  ASSERT_EQ(good.substr(num_params_at, 4), std::string("\0\0\0\6", 4)) << "layout of estimate_t changed";
+  for (int32_t n : {-1, 1'000'000'000, 5000}) {
+    std::string b = good;
+    PutInt32(b, num_params_at, n);
+    EXPECT_THROW(DecodeEstimate(b), Error) << n;
+  }
+  const size_t last_effect_at = good.size() - 4 - sizeof("tyre_relaxation");  // the last string
+  ASSERT_EQ(good.substr(last_effect_at, 4), std::string("\0\0\0\x10", 4));
+  for (int32_t len : {0, -7}) {
+    for (size_t at : {vehicle_at, last_effect_at}) {  // found by the fuzzer: the effects' strings
+      std::string b = good;
+      PutInt32(b, at, len);
+      EXPECT_THROW(DecodeEstimate(b), Error) << len << " at " << at;
+    }
+  }
+  for (size_t cut = 0; cut < good.size(); ++cut) EXPECT_THROW(DecodeEstimate(good.substr(0, cut)), Error) << cut;
+  EXPECT_EQ(DecodeEstimate(good).params.size(), 6u);
+}
+
 }  // namespace
 }  // namespace ndsid::publish

@@ -41,6 +41,9 @@ class Tracker {
   Report Update(double gated_hours, double eg, double eg_se, const stats::Coverage& coverage);
   // Re-derive the report without a new estimate (e.g. after an identification failure).
   const Report& last() const { return last_; }
+  // The newest kMaxHistoryPoints estimates (one per identification: decades of driving at the
+  // default period); a state claiming more is rejected by Deserialize.
+  static constexpr size_t kMaxHistoryPoints = 100'000;
   const std::vector<EgPoint>& history() const { return history_; }
 
   std::string Serialize() const;

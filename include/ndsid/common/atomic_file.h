@@ -4,6 +4,7 @@
 // by the service); a new file gets 0666 minus the umask, like any file the process creates.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <string_view>
 
@@ -14,7 +15,11 @@ namespace ndsid {
 // temporary file removed. A symlink is followed: its destination is replaced, the link stays.
 void WriteFileAtomically(const std::string& path, std::string_view contents);
 
-// Reads a whole file; throws ndsid::Error naming the path when it cannot.
-std::string ReadWholeFile(const std::string& path);
+inline constexpr size_t kMaxReadBytes = size_t{1} << 30;  // 1 GiB: no input of ours is near it
+
+// Reads a whole file; throws ndsid::Error naming the path when it cannot be opened or read
+// (every read error counts, EIO as well as a directory given for a file) or is larger than
+// `max_bytes`.
+std::string ReadWholeFile(const std::string& path, size_t max_bytes = kMaxReadBytes);
 
 }  // namespace ndsid

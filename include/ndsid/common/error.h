@@ -20,6 +20,9 @@ class ConfigError : public Error {
 };
 
 inline constexpr int kExitConfig = 78;  // EX_CONFIG from sysexits.h
+// Input that could not be read to its end (a truncated gzip log, a read error) or learned state
+// that could not be saved at exit: the run's result is incomplete (docs/reliability.md).
+inline constexpr int kExitIo = 74;      // EX_IOERR from sysexits.h
 
 // "file:line:column: message" (line/column omitted when 0), the one format for locations.
 std::string FormatLocation(const std::string& file, int line, int column, const std::string& message);

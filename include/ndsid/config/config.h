@@ -141,6 +141,7 @@ struct FormulaSpec {
   std::string target;      // "a_y_meas" (the measured a_y), "beta_dot" or "r_dot" (added terms)
   std::string expression;
   std::vector<FormulaParam> params;
+  std::string file;  // the configuration file and line, for located errors
   int line = 0;
 };
 

@@ -19,12 +19,19 @@ struct ExprNode {
   int variable = -1;     // index into the variable names given to ParseExpression
   std::string function;  // kCall
   std::unique_ptr<ExprNode> a, b;
+  int depth = 1;  // levels of this subtree (Evaluate recurses this deep)
 };
 
 class Expression {
  public:
-  // Throws ConfigError "expression 'text', column C: message" on a syntax error or a name not in
-  // `variables`.
+  // Limits (docs/reliability.md): parsing and evaluation recurse, so the nesting is bounded;
+  // parentheses, function calls, unary signs and every chained operator (a sum of n terms is n
+  // levels deep) add one level.
+  static constexpr size_t kMaxChars = 4096;
+  static constexpr int kMaxDepth = 200;
+
+  // Throws ConfigError "expression 'text', column C: message" on a syntax error, a name not in
+  // `variables`, or a text longer than kMaxChars or nested deeper than kMaxDepth.
   static Expression Parse(const std::string& text, const std::vector<std::string>& variables);
 
   template <typename T>

@@ -112,6 +112,10 @@ int Run(const DecodeArgs& a) {
               << "\n";
     return 65;  // EX_DATAERR
   }
+  if (!reader.io_error().empty()) {
+    std::cerr << "ndsid decode: " << a.log << ": not read to its end: " << reader.io_error() << "\n";
+    return kExitIo;
+  }
   return 0;
 }
 

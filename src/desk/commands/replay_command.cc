@@ -57,6 +57,7 @@ int Run(const ReplayArgs& a) {
   if (sets.empty()) sets.push_back({"config", cfg.source.logs, ""});
 
   int failures = 0;
+  bool input_errors = false;
   for (const Set& set : sets) {
     pipeline::Pipeline pipeline(cfg, db);
     ReplayOptions opt;
@@ -68,7 +69,12 @@ int Run(const ReplayArgs& a) {
     const std::string report = WriteReport((fs::path(report_root) / set.name).string(), cfg, pipeline, out);
     PrintSummary(cfg, pipeline, out, report);
     if (!out.final_estimate || !out.final_estimate->fit.valid) ++failures;
+    for (const std::string& e : out.input_errors) {
+      std::fprintf(stderr, "ndsid replay: %s: log not read to its end: %s\n", set.name.c_str(), e.c_str());
+      input_errors = true;
+    }
   }
+  if (input_errors) return kExitIo;
   return failures == 0 ? 0 : 1;
 }
 

@@ -25,7 +25,7 @@ class FormulaEffect final : public EffectImpl<FormulaEffect> {
     try {
       expr_ = Expression::Parse(spec.expression, vars);
     } catch (const ConfigError& e) {
-      throw ConfigError("model.formulas." + spec.name + ": " + e.what());
+      throw ConfigError(FormatLocation(spec.file, spec.line, 0, "model.formulas." + spec.name + ": " + e.what()));
     }
   }
 

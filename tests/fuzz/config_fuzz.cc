@@ -1,0 +1,20 @@
+// Fuzz target: a vehicle YAML through ParseConfig, then its formula effects through the model's
+// registration (parse, limits, the neutral-value check, one evaluation each) and the effect
+// list through ModelSpec. Only ConfigError (a located error, exit 78) may come out.
+#include <cstdint>
+#include <string>
+
+#include "ndsid/config/config.h"
+#include "ndsid/model/effect.h"
+#include "ndsid/model/model_spec.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  try {
+    const ndsid::config::Config c = ndsid::config::ParseConfig(text, "/fuzz/vehicle.yaml");
+    ndsid::model::RegisterFormulaEffects(c.model_formulas);
+    ndsid::model::ModelSpec::FromNames(c.model_effects);
+  } catch (const ndsid::ConfigError&) {
+  }
+  return 0;
+}
