@@ -19,6 +19,7 @@ DEB_PACKAGES=(
   libbenchmark-dev nlohmann-json3-dev zlib1g-dev
   can-utils iproute2 systemd
   libjchart2d-java xvfb file unzip          # ndsid-lcm-spy's charts; tests/package (xvfb-run, dpkg-deb checks)
+  qemu-system-x86 linux-image-amd64 busybox-static   # tests/vm: the VM test bed
   python3 python3-venv python3-pip
 )
 
