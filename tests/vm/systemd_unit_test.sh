@@ -37,10 +37,20 @@ journal_count() { journalctl -u ndsidd --no-pager -o cat | grep -c "$1"; }
 # --- install ---------------------------------------------------------------------------------
 t0=$(date +%s.%N)
 cmake --install "$bin" --prefix /usr >/tmp/install.log 2>&1 || { cat /tmp/install.log; exit 1; }
-unit=/usr/lib/systemd/system/ndsidd.service
-# The unit's paths are fixed at configure time (default prefix /usr/local) until the packaging
-# work lands (issue 12): point it at the binary that was installed.
-[[ -x /usr/local/sbin/ndsidd ]] || sed -i 's|/usr/local/sbin/ndsidd|/usr/sbin/ndsidd|g; s|/usr/local/etc/ndsid/|/etc/ndsid/|g' "$unit"
+unit=$(ls /usr/lib/systemd/system/ndsidd.service /usr/local/lib/systemd/system/ndsidd.service 2>/dev/null | head -1)
+[[ -n "$unit" ]] || { echo "no ndsidd.service installed"; cat /tmp/install.log; exit 1; }
+# Until the packaging work (issue 12) lands, the unit's and config's paths are those of the
+# configure-time prefix (default /usr/local) while the files go to --prefix /usr: put them where
+# a user of the package has them (/usr/sbin/ndsidd, /etc/ndsid/vehicle.yaml, /usr/share/ndsid).
+fixed=""
+if [[ ! -x /usr/local/sbin/ndsidd ]] && grep -q /usr/local/ "$unit"; then
+  sed -i 's|/usr/local/sbin/ndsidd|/usr/sbin/ndsidd|g; s|/usr/local/etc/ndsid/|/etc/ndsid/|g' "$unit"
+  if [[ -f /usr/local/etc/ndsid/vehicle.yaml && ! -f /etc/ndsid/vehicle.yaml ]]; then
+    mkdir -p /etc/ndsid && cp /usr/local/etc/ndsid/vehicle.yaml /etc/ndsid/vehicle.yaml
+  fi
+  sed -i 's|/usr/local/share/ndsid/|/usr/share/ndsid/|g' /etc/ndsid/vehicle.yaml
+  fixed=" (configure-time /usr/local paths in unit and config rewritten to /usr, issue 12)"
+fi
 cfg_dir=$(sed -n 's|^ExecStart=[^ ]* --config \(.*\)/vehicle.yaml$|\1|p' "$unit")
 mkdir -p "$cfg_dir"
 # The example config on the live bus can0 (what a user edits after installing).
@@ -50,7 +60,7 @@ awk '/^source:/ { print "source:\n  type: socketcan\n  interface: can0"; skip = 
 sed -i 's/min_drive_km: 2.0/min_drive_km: 0.5/' /tmp/vehicle.yaml
 install -m 0644 /tmp/vehicle.yaml "$cfg_dir/vehicle.yaml"
 good_cfg=/tmp/vehicle.yaml
-result "install: cmake --install in $(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }') s; unit $unit, config $cfg_dir/vehicle.yaml"
+result "install: cmake --install in $(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }') s; unit $unit, config $cfg_dir/vehicle.yaml$fixed"
 
 # --- can0: a vcan from systemd-networkd -------------------------------------------------------
 mkdir -p /etc/systemd/network
@@ -88,16 +98,16 @@ result "dynamic user: MainPID $pid runs as '$user' (uid $(ps -o uid= -p "$pid" |
 [[ "$user" != root ]] || fail "runs as root"
 journal_has "ndsidd: vehicle" && result "journal: $(journalctl -u ndsidd --no-pager -o cat | grep -m1 'ndsidd: vehicle')" || fail "no start line in the journal"
 
-# --- data: 120 s of the recorded drive into can0 at recorded speed ------------------------------
-slice=/tmp/slice.log
-zcat "$src/replay/clean/drive.log.gz" | awk 'NR == 1 { t0 = substr($1, 2) + 0 } { t = substr($1, 2) + 0 - t0 } t >= 120 && t < 240' >"$slice"
-head -n $(($(wc -l <"$slice") / 2)) "$slice" >/tmp/slice_a.log
-tail -n +$(($(wc -l <"$slice") / 2 + 1)) "$slice" >/tmp/slice_b.log
+# --- data: 2 x 60 s of the recorded drive into can0 at recorded speed -----------------------------
+# (180-240 s gates 0.0156 h as a file; 240-300 s follows it in the same drive)
+zcat "$src/replay/clean/drive.log.gz" | awk 'NR == 1 { t0 = substr($1, 2) + 0 } { t = substr($1, 2) + 0 - t0 }
+  t >= 180 && t < 240 { print >"/tmp/slice_a.log" } t >= 240 && t < 300 { print >"/tmp/slice_b.log" } t >= 300 { exit }'
 
 # LCM recorded by lcm-logger over udpm while the first half plays, decoded with the Python types.
-lcm-logger --quiet "udpm://239.255.76.67:7667?ttl=0" /tmp/ndsid.lcmlog >/dev/null 2>&1 &
+lcm-logger --quiet --force "--lcm-url=udpm://239.255.76.67:7667?ttl=0" /tmp/ndsid.lcmlog >/dev/null 2>&1 &
 logger_pid=$!
 canplayer -I /tmp/slice_a.log can0=can0
+result "played: $(wc -l </tmp/slice_a.log) frames into can0: $(ip -s -br link show can0 2>/dev/null | tr -s ' ' | head -1); ndsidd: $(prop ndsidd StatusText)"
 kill -INT "$logger_pid"; wait "$logger_pid" 2>/dev/null
 decoded=$(PYTHONPATH="$bin/lcmtypes/python" "$py" - <<'EOF'
 import lcm, ndsid
@@ -151,7 +161,7 @@ peak=$(prop ndsidd MemoryPeak 2>/dev/null); cur=$(prop ndsidd MemoryCurrent)
 result "memory: MemoryMax=$(prop ndsidd MemoryMax), MemoryCurrent $cur, VmHWM $(sed -n 's/VmHWM: *//p' /proc/"$(prop ndsidd MainPID)"/status)"
 [[ "$(prop ndsidd MemoryMax)" != infinity ]] || fail "no MemoryMax= in the unit"
 mkdir -p /run/systemd/system/ndsidd.service.d
-printf '[Service]\nMemoryMax=12M\nMemorySwapMax=0\n' >/run/systemd/system/ndsidd.service.d/tiny.conf
+printf '[Service]\nMemoryMax=1M\nMemorySwapMax=0\n' >/run/systemd/system/ndsidd.service.d/tiny.conf
 systemctl daemon-reload
 systemctl restart ndsidd >/dev/null 2>&1
 canplayer -I /tmp/slice_a.log can0=can0 &
@@ -159,8 +169,8 @@ player=$!
 wait_for 60 sh -c "systemctl show -p Result --value ndsidd | grep -q oom-kill || journalctl -u ndsidd --no-pager -o cat | grep -qi 'oom'"
 oom=$(journalctl -u ndsidd --no-pager -o cat | grep -m1 -i "oom" || true)
 kill "$player" 2>/dev/null; wait "$player" 2>/dev/null
-result "memorymax: with MemoryMax=12M: Result=$(prop ndsidd Result); journal: ${oom:--}"
-[[ -n "$oom" ]] || fail "MemoryMax=12M not enforced (no OOM kill)"
+result "memorymax: with MemoryMax=1M: Result=$(prop ndsidd Result); journal: ${oom:--}"
+[[ -n "$oom" ]] || fail "MemoryMax=1M not enforced (no OOM kill)"
 rm -rf /run/systemd/system/ndsidd.service.d
 systemctl daemon-reload
 systemctl reset-failed ndsidd 2>/dev/null
