@@ -289,10 +289,10 @@ def case_errors_reconnect_overload(work, lcm, ndsid):
     plain = os.path.join(work, "slice30.log")
     total, _ = make_slice(plain, 300.0, 30.0)
     rate = total / 30.0
-    burst = max(1, round(9 * rate / 100))  # cangen: `burst` frames every 10 ms = 9x the recorded rate
-    n_gen = burst * 100 * 30
+    burst = max(1, round(9 * rate / 50))  # cangen: `burst` frames every 20 ms = 9x the recorded rate
+    n_gen = burst * 50 * 30
     t = time.time()
-    gen = subprocess.Popen(["cangen", "vcan0", "-I", f"{STEERING_ID:X}", "-L", "8", "-D", "i", "-g", "10", "-c",
+    gen = subprocess.Popen(["cangen", "vcan0", "-I", f"{STEERING_ID:X}", "-L", "8", "-D", "i", "-g", "20", "-c",
                             str(burst), "-n", str(n_gen)], stderr=subprocess.PIPE, text=True)
     sh(f"canplayer -I {plain} vcan0=can0")
     gen_err = gen.communicate(timeout=900)[1]
@@ -300,7 +300,7 @@ def case_errors_reconnect_overload(work, lcm, ndsid):
     st4 = d.status()
     mem1 = rss_kb(d.p.pid)
     read4, drop4 = st4.frames_read - st3.frames_read, st4.dropped - st3.dropped
-    result("overload", f"10x bus: recorded {rate:.0f} frames/s, cangen {n_gen} frames in bursts of {burst} every 10 ms (exit "
+    result("overload", f"10x bus: recorded {rate:.0f} frames/s, cangen {n_gen} frames in bursts of {burst} every 20 ms (exit "
            f"{gen.returncode}{', ' + gen_err.strip() if gen_err.strip() else ''}) in {wall:.1f} s = "
            f"{(n_gen + total) / wall:.0f} frames/s offered ({(n_gen + total) / wall / rate:.1f}x); read {read4}, dropped {drop4}; "
            f"RSS {mem0['VmRSS']} -> {mem1['VmRSS']} kB, peak {mem1['VmHWM']} kB")

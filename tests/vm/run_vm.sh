@@ -31,7 +31,7 @@ while [[ $# -gt 0 ]]; do
     --mem) mem="$2"; shift 2 ;;
     --smp) smp="$2"; shift 2 ;;
     --keep) keep=1; shift ;;
-    -h|--help) sed -n '2,26p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,23p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     --) shift; break ;;
     -*) echo "run_vm: unknown option $1" >&2; exit 2 ;;
     *) break ;;
@@ -57,7 +57,7 @@ if [[ -z "$kver" ]]; then
 fi
 [[ -n "$kver" && -r "/boot/vmlinuz-$kver" && -f "/lib/modules/$kver/modules.dep" ]] ||
   skip "no readable kernel with modules (/boot/vmlinuz-<ver> + /lib/modules/<ver>; Debian package linux-image-amd64)"
-[[ -e /dev/kvm ]] && : # deliberately unused: KVM hangs on these hosts, TCG is enough
+
 
 work="$(mktemp -d /tmp/ndsid-vm.XXXXXX)"
 results="${NDSID_VM_RESULTS:-$work/results}"

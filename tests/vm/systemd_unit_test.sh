@@ -3,9 +3,9 @@
 #
 #   tests/vm/run_vm.sh --systemd tests/vm/systemd_unit_test.sh     (ctest -L vm: vm_SystemdUnit)
 #
-# Installs the project the way a user does (`cmake --install $NDSID_BINARY_DIR --prefix /usr`
-# into the VM's RAM overlay), brings up a vcan named can0 with systemd-networkd from the files
-# in systemd/, enables the unit and checks, each with its numbers (`RESULT name: ...`):
+# Installs the project the way a user does (the Debian package built by cpack from
+# $NDSID_BINARY_DIR and `dpkg -i`, else `cmake --install --prefix /usr`; into the VM's RAM
+# overlay), brings up a vcan named can0 with systemd-networkd from the files in systemd/, enables the unit and checks, each with its numbers (`RESULT name: ...`):
 # verify + security score, Type=notify readiness, journal, DynamicUser state directory, LCM over
 # udpm recorded by lcm-logger and decoded, SIGHUP reload, SIGTERM restart + SIGKILL restart with
 # the learned state, watchdog (SIGSTOP), MemoryMax= enforced, a config error -> 78 and no
@@ -34,23 +34,24 @@ wait_for() {  # wait_for SECONDS COMMAND...: until COMMAND succeeds
 journal_has() { journalctl -u ndsidd --no-pager -o cat | grep -q "$1"; }
 journal_count() { journalctl -u ndsidd --no-pager -o cat | grep -c "$1"; }
 
-# --- install ---------------------------------------------------------------------------------
+# --- install: the project's Debian package (cpack from the build tree), else cmake --install ---
 t0=$(date +%s.%N)
-cmake --install "$bin" --prefix /usr >/tmp/install.log 2>&1 || { cat /tmp/install.log; exit 1; }
+how=""
+if [[ -f "$bin/CPackConfig.cmake" ]] && command -v cpack >/dev/null; then
+  if cpack -G DEB --config "$bin/CPackConfig.cmake" -B /tmp/dist >/tmp/install.log 2>&1 &&
+     deb=$(ls /tmp/dist/ndsid_*.deb 2>/dev/null | head -1) && [[ -n "$deb" ]] &&
+     dpkg -i "$deb" >>/tmp/install.log 2>&1; then
+    how="dpkg -i $(basename "$deb") (cpack -G DEB)"
+  else
+    echo "package build/install failed, falling back to cmake --install:"; tail -20 /tmp/install.log
+  fi
+fi
+if [[ -z "$how" ]]; then
+  cmake --install "$bin" --prefix /usr >/tmp/install.log 2>&1 || { cat /tmp/install.log; exit 1; }
+  how="cmake --install --prefix /usr"
+fi
 unit=$(ls /usr/lib/systemd/system/ndsidd.service /usr/local/lib/systemd/system/ndsidd.service 2>/dev/null | head -1)
 [[ -n "$unit" ]] || { echo "no ndsidd.service installed"; cat /tmp/install.log; exit 1; }
-# Until the packaging work (issue 12) lands, the unit's and config's paths are those of the
-# configure-time prefix (default /usr/local) while the files go to --prefix /usr: put them where
-# a user of the package has them (/usr/sbin/ndsidd, /etc/ndsid/vehicle.yaml, /usr/share/ndsid).
-fixed=""
-if [[ ! -x /usr/local/sbin/ndsidd ]] && grep -q /usr/local/ "$unit"; then
-  sed -i 's|/usr/local/sbin/ndsidd|/usr/sbin/ndsidd|g; s|/usr/local/etc/ndsid/|/etc/ndsid/|g' "$unit"
-  if [[ -f /usr/local/etc/ndsid/vehicle.yaml && ! -f /etc/ndsid/vehicle.yaml ]]; then
-    mkdir -p /etc/ndsid && cp /usr/local/etc/ndsid/vehicle.yaml /etc/ndsid/vehicle.yaml
-  fi
-  sed -i 's|/usr/local/share/ndsid/|/usr/share/ndsid/|g' /etc/ndsid/vehicle.yaml
-  fixed=" (configure-time /usr/local paths in unit and config rewritten to /usr, issue 12)"
-fi
 cfg_dir=$(sed -n 's|^ExecStart=[^ ]* --config \(.*\)/vehicle.yaml$|\1|p' "$unit")
 mkdir -p "$cfg_dir"
 # The example config on the live bus can0 (what a user edits after installing).
@@ -60,7 +61,7 @@ awk '/^source:/ { print "source:\n  type: socketcan\n  interface: can0"; skip = 
 sed -i 's/min_drive_km: 2.0/min_drive_km: 0.5/' /tmp/vehicle.yaml
 install -m 0644 /tmp/vehicle.yaml "$cfg_dir/vehicle.yaml"
 good_cfg=/tmp/vehicle.yaml
-result "install: cmake --install in $(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }') s; unit $unit, config $cfg_dir/vehicle.yaml$fixed"
+result "install: $how in $(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }') s; unit $unit, config $cfg_dir/vehicle.yaml"
 
 # --- can0: a vcan from systemd-networkd -------------------------------------------------------
 mkdir -p /etc/systemd/network
@@ -196,7 +197,7 @@ systemctl reset-failed ndsidd 2>/dev/null
 before=$(prop ndsidd NRestarts)
 systemctl restart ndsidd 2>/dev/null
 sleep 20
-result "config error with ExecStartPre=: ActiveState $(prop ndsidd ActiveState), NRestarts $before -> $(prop ndsidd NRestarts) in 20 s (RestartSec 5 s; StartLimitBurst=5 stops it after 5 starts in 600 s)"
+result "config error with ExecStartPre=: ActiveState $(prop ndsidd ActiveState), NRestarts $before -> $(prop ndsidd NRestarts) in 20 s (RestartSec 5 s; the StartLimitBurst= backstop is not waited for here)"
 rm -rf /run/systemd/system/ndsidd.service.d
 systemctl daemon-reload
 install -m 0644 "$good_cfg" "$cfg_dir/vehicle.yaml"
