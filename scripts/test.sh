@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # README command 2: install what is missing, build, and run the test suite with CTest.
 #   scripts/test.sh           every test except those labelled "long" or "vm" (the CI default)
-#   scripts/test.sh --vm      only the VM test bed (label "vm", ~12 min on 2 cores; docs/daemon.md)
+#   scripts/test.sh --vm      only the VM test bed (label "vm", 11-17 min on 2 cores; docs/daemon.md)
 #   scripts/test.sh --all     everything, including the long accuracy studies and the VM tests
 #   extra arguments go to ctest (e.g. -R Dbc)
 set -euo pipefail

@@ -58,13 +58,10 @@ fi
 [[ -n "$kver" && -r "/boot/vmlinuz-$kver" && -f "/lib/modules/$kver/modules.dep" ]] ||
   skip "no readable kernel with modules (/boot/vmlinuz-<ver> + /lib/modules/<ver>; Debian package linux-image-amd64)"
 
-
 work="$(mktemp -d /tmp/ndsid-vm.XXXXXX)"
 results="${NDSID_VM_RESULTS:-$work/results}"
 mkdir -p "$results"
-qemu_pid=""
 cleanup() {
-  [[ -n "$qemu_pid" ]] && kill "$qemu_pid" 2>/dev/null || true
   if [[ $keep -eq 0 ]]; then rm -rf "$work"; else echo "run_vm: kept $work" >&2; fi
 }
 trap cleanup EXIT
@@ -73,7 +70,7 @@ trap cleanup EXIT
 root="$work/initramfs"
 mkdir -p "$root"/{bin,dev,proc,sys,mnt/host,mnt/rw,mnt/root,lib/modules}
 cp "$busybox" "$root/bin/busybox"
-for applet in sh mount umount insmod mkdir sleep cat echo reboot poweroff switch_root chroot ip ln mknod cp date sync; do
+for applet in sh mount umount insmod mkdir sleep cat echo reboot poweroff switch_root chroot ip ln mknod cp date sync sed rm; do
   ln -s busybox "$root/bin/$applet"
 done
 moddir="/lib/modules/$kver"
@@ -95,7 +92,7 @@ add_module() {
   done
   order+=("$path")
 }
-for m in virtio_pci virtio_blk 9pnet_virtio 9p overlay can can-raw can_raw vcan can-dev; do add_module "$m"; done
+for m in virtio_pci 9pnet_virtio 9p overlay can can-raw can_raw vcan can-dev; do add_module "$m"; done
 : >"$root/modules.order"
 for p in "${order[@]}"; do
   f="$root/lib/modules/$(basename "$p")"
