@@ -6,7 +6,8 @@
 #
 # 1. creates vcan0 (`ip link add dev vcan0 type vcan && ip link set up vcan0`; root + the vcan
 #    kernel module) unless it exists,
-# 2. starts ndsidd on vcan0 with a temporary copy of CONFIG whose source is `socketcan vcan0`,
+# 2. starts ndsidd on vcan0 with a temporary copy of CONFIG whose source is `socketcan vcan0`
+#    (written to a temporary folder: CONFIG's folder may be read-only),
 # 3. plays LOG into vcan0 with `canplayer -I LOG vcan0=<bus of the log>` at recorded speed
 #    (canplayer's <send interface>=<log interface> mapping), then stops ndsidd with SIGTERM.
 # Where vcan is unavailable (no module, no root, a container) it says so and falls back to
@@ -17,7 +18,7 @@ set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 if [[ $# -lt 1 || $# -gt 2 ]]; then
-  sed -n '2,15p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+  sed -n '2,16p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 log="$(realpath "$1")"
@@ -28,13 +29,14 @@ ndsidd="${NDSIDD:-$here/build/bin/ndsidd}"
 [[ -x "$ndsidd" ]] || { echo "vcan_replay: ndsidd not found (build it, or set NDSIDD)" >&2; exit 1; }
 [[ -r "$log" ]] || { echo "vcan_replay: cannot read $log" >&2; exit 1; }
 
-# The temporary config lives beside CONFIG so that its relative paths (dbc, state_dir) still hold.
-tmp_config="$(dirname "$config")/.vcan_replay.$$.yaml"
+# The temporary config lives in a temporary folder (CONFIG's folder may be read-only); its
+# relative paths (dbc, state_dir, report_dir) are made absolute against CONFIG's folder.
 tmp_dir="$(mktemp -d)"
+tmp_config="$tmp_dir/vehicle.yaml"
+config_dir="$(dirname "$config")"
 daemon_pid=""
 cleanup() {
   [[ -n "$daemon_pid" ]] && kill -TERM "$daemon_pid" 2>/dev/null && wait "$daemon_pid" 2>/dev/null
-  rm -f "$tmp_config"
   rm -rf "$tmp_dir"
 }
 trap cleanup EXIT
@@ -44,8 +46,14 @@ write_config() {
   awk -v block="$1" '
     /^source:/ { print "source:"; printf "%s\n", block; skip = 1; next }
     skip && /^[^ #]/ { skip = 0 }
-    !skip { print }
-  ' "$config" >"$tmp_config"
+    skip { next }
+    /^(dbc|state_dir|report_dir):[ \t]*[^ \t\/#"]/ {
+      key = $0; sub(/:.*/, "", key)
+      rest = $0; sub(/^[^:]*:[ \t]*/, "", rest)
+      print key ": " dir "/" rest; next
+    }
+    { print }
+  ' dir="$config_dir" "$config" >"$tmp_config"
 }
 
 log_fallback() {

@@ -20,6 +20,7 @@ DEB_PACKAGES=(
   can-utils iproute2 systemd
   libjchart2d-java xvfb file unzip          # ndsid-lcm-spy's charts; tests/package (xvfb-run, dpkg-deb checks)
   clang libfuzzer-14-dev libclang-rt-14-dev       # scripts/fuzz.sh (libFuzzer, ASan, UBSan)
+  qemu-system-x86 linux-image-amd64 busybox-static   # tests/vm: the VM test bed
   python3 python3-venv python3-pip
 )
 

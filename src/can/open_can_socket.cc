@@ -3,6 +3,7 @@
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -34,6 +35,14 @@ int OpenCanSocket(const SocketCanOptions& options, std::string& error) noexcept 
     if (fd < 0) return fail("socket(PF_CAN, SOCK_RAW, CAN_RAW)");
     const unsigned index = if_nametoindex(options.interface.c_str());
     if (index == 0) return fail("no interface named " + options.interface);
+    // A socket bound to an interface that is down reports ENETDOWN at once: fail here instead,
+    // so that reopening backs off until the interface is up (no reconnect storm).
+    ifreq request{};
+    std::memcpy(request.ifr_name, options.interface.c_str(), options.interface.size());
+    if (ioctl(fd, SIOCGIFFLAGS, &request) == 0 && (request.ifr_flags & IFF_UP) == 0) {
+      errno = ENETDOWN;
+      return fail(options.interface + " is down");
+    }
 
     if (!options.ids.empty() && options.ids.size() <= CAN_RAW_FILTER_MAX) {
       std::vector<can_filter> filters;

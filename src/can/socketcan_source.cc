@@ -3,6 +3,7 @@
 
 #include <fcntl.h>
 #include <linux/can.h>
+#include <linux/sock_diag.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -24,6 +25,9 @@ namespace ndsid::can {
 namespace {
 
 constexpr int64_t kNsPerMs = 1'000'000;
+#ifndef SO_MEMINFO
+constexpr int SO_MEMINFO = 55;  // Linux >= 4.6
+#endif
 
 int64_t ClockNs(clockid_t clock) noexcept {
   timespec ts{};
@@ -100,7 +104,31 @@ struct SocketCanSource::Impl {
   // Receives one batch into out; `vanished` when the stream ended or the interface is gone.
   size_t Receive(std::span<CanFrame> out, bool& vanished) noexcept;
   void LogErrorFrame(const CanFrame& frame, int64_t now) noexcept;
+  // The socket's cumulative drop count, from a record's SO_RXQ_OVFL or from SO_MEMINFO.
+  void UpdateDrops(uint32_t total) noexcept;
+  void QueryDrops() noexcept;
 };
+
+// SO_RXQ_OVFL stamps each record with the drop count at the time it was queued, so the drops
+// of a burst show only on the next record queued after it; SO_MEMINFO reads the count now.
+// Both are cumulative per socket: only a count ahead of the last one seen adds.
+void SocketCanSource::Impl::UpdateDrops(uint32_t total) noexcept {
+  const uint32_t delta = total - last_drop_count;
+  if (delta == 0 || static_cast<int32_t>(delta) < 0) return;  // an older record's stamp
+  counters.dropped += delta;
+  last_drop_count = total;
+}
+
+void SocketCanSource::Impl::QueryDrops() noexcept {
+  if (fd < 0) return;
+  std::array<uint32_t, SK_MEMINFO_VARS> mem{};
+  socklen_t size = sizeof mem;
+  if (getsockopt(fd, SOL_SOCKET, SO_MEMINFO, mem.data(), &size) != 0 ||
+      size < (SK_MEMINFO_DROPS + 1) * sizeof(uint32_t)) {
+    return;
+  }
+  UpdateDrops(mem[SK_MEMINFO_DROPS]);
+}
 
 void SocketCanSource::Impl::Disconnect(const char* what, int error) noexcept {
   if (fd >= 0) close(fd);
@@ -199,10 +227,7 @@ size_t SocketCanSource::Impl::Receive(std::span<CanFrame> out, bool& vanished) n
                              ? detail::RecordVerdict::kMalformed
                              : detail::DecodeRecord(records[i].data(), m.msg_len, frame);
     const detail::Control control = detail::ReadControl(m.msg_hdr);
-    if (control.has_drop_count) {
-      counters.dropped += static_cast<uint32_t>(control.drop_count - last_drop_count);
-      last_drop_count = control.drop_count;
-    }
+    if (control.has_drop_count) UpdateDrops(control.drop_count);
     if (verdict == detail::RecordVerdict::kMalformed) {
       ++counters.malformed;
       continue;
@@ -223,6 +248,7 @@ size_t SocketCanSource::Impl::Receive(std::span<CanFrame> out, bool& vanished) n
     ++counters.frames;
     ++count;
   }
+  if (static_cast<size_t>(n) < batch) QueryDrops();  // queue drained: drops since the last record
   return count;
 }
 
@@ -232,7 +258,8 @@ SocketCanSource::SocketCanSource(SocketCanOptions options) {
   ValidateOptions(options, options.interface);
   std::string error;
   const int fd = OpenCanSocket(options, error);
-  if (fd < 0) throw Error("socketcan " + options.interface + ": " + error);
+  const bool down = fd < 0 && errno == ENETDOWN;  // exists but is down: wait for it to come up
+  if (fd < 0 && !down) throw Error("socketcan " + options.interface + ": " + error);
   impl_ = std::make_unique<Impl>();
   impl_->options = options;
   impl_->description = "socketcan " + options.interface;
@@ -247,6 +274,11 @@ SocketCanSource::SocketCanSource(SocketCanOptions options) {
     errno = saved;
     return new_fd;
   };
+  if (down) {
+    impl_->backoff_ms = options.reconnect_initial_ms;
+    impl_->next_attempt_ns = impl_->Now() + impl_->backoff_ms * kNsPerMs;
+    impl_->log->warn("socketcan {}: {}; waiting for it to come up", options.interface, error);
+  }
 }
 
 std::unique_ptr<SocketCanSource> SocketCanSource::Adopt(int fd, std::string bus_name, OpenFn reopen,
@@ -299,7 +331,10 @@ ReadResult SocketCanSource::Read(std::span<CanFrame> out, int timeout_ms) noexce
       s.Disconnect("poll", errno);
       return {0, SourceState::kDisconnected};
     }
-    if (ready == 0) return {0, SourceState::kTimeout};
+    if (ready == 0) {
+      s.QueryDrops();
+      return {0, SourceState::kTimeout};
+    }
     if (p.revents & POLLIN) {  // drain data first, even when POLLHUP/POLLERR are also set
       bool vanished = false;
       const size_t count = s.Receive(out, vanished);

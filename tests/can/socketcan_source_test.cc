@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -285,6 +286,41 @@ TEST(SocketCanSource, ReconnectBackOffDoublesFrom100MsUpTo5s) {
   const std::vector<int64_t> expected = {100, 300, 700, 1500, 3100, 6300, 11300, 16300};
   EXPECT_EQ(attempts_ms, expected);
   EXPECT_EQ(source->counters().reconnects, 0u);
+}
+
+// The kernel's own drop counter on a real datagram socket (UDP on loopback counts receive-queue
+// overflows the way CAN_RAW does): SO_RXQ_OVFL stamps a record with the drops before it was
+// queued, so a burst whose drops come after the last queued record shows only through SO_MEMINFO.
+TEST(SocketCanSource, DropsOfABurstAreCountedAlsoWithoutALaterRecord) {
+  const int rx = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  const int tx = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(rx, 0);
+  ASSERT_GE(tx, 0);
+  const int small = 4096;  // the kernel doubles it: a few dozen records fit
+  ASSERT_EQ(setsockopt(rx, SOL_SOCKET, SO_RCVBUF, &small, sizeof small), 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(bind(rx, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  socklen_t size = sizeof address;
+  ASSERT_EQ(getsockname(rx, reinterpret_cast<sockaddr*>(&address), &size), 0);
+  auto source = SocketCanSource::Adopt(rx, "udp", {});
+  can_frame raw{};
+  raw.can_id = 0x123;
+  raw.len = 8;
+  uint64_t sent = 0;
+  for (int i = 0; i < 2000; ++i) {
+    if (sendto(tx, &raw, sizeof raw, 0, reinterpret_cast<sockaddr*>(&address), sizeof address) == sizeof raw) ++sent;
+  }
+  close(tx);
+  std::vector<CanFrame> out(64);
+  uint64_t read = 0;
+  for (ReadResult r = source->Read(out, 100); r.state == SourceState::kOk; r = source->Read(out, 100)) read += r.count;
+  EXPECT_EQ(sent, 2000u);
+  EXPECT_GT(read, 0u);
+  EXPECT_LT(read, sent) << "the burst must overflow the small receive queue";
+  EXPECT_EQ(source->counters().frames, read);
+  EXPECT_EQ(read + source->counters().dropped, sent) << "every frame read or counted as dropped";
 }
 
 TEST(SocketCanSource, AdoptingClosedFdThrowsNamingTheBus) {
