@@ -12,7 +12,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
     const ndsid::config::Config c = ndsid::config::ParseConfig(text, "/fuzz/vehicle.yaml");
-    ndsid::model::RegisterFormulaEffects(c.model_formulas);
+    const ndsid::model::EffectLibrary library(c.model_formulas);
     ndsid::model::ModelSpec::FromNames(c.model_effects);
   } catch (const ndsid::ConfigError&) {
   }

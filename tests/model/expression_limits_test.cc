@@ -7,6 +7,7 @@
 
 #include "ndsid/config/config.h"
 #include "ndsid/model/effect.h"
+#include "ndsid/model/effect_library.h"
 #include "ndsid/model/expression.h"
 
 namespace ndsid::model {
@@ -73,7 +74,7 @@ model:
 )",
                                                "car.yaml");
   try {
-    RegisterFormulaEffects(c.model_formulas);
+    const EffectLibrary library(c.model_formulas);
     FAIL() << "accepted";
   } catch (const ConfigError& e) {
     const std::string m = e.what();
