@@ -108,12 +108,8 @@ int Run(const DecodeArgs& a) {
             << " (" << can::LogFormatName(reader.format()) << ")\n";
   for (const auto& m : reader.first_malformed()) std::cerr << "  " << reader.Locate(m) << "\n";
   if (!reader.io_error().empty()) {  // truncated or unreadable: the CSV above is incomplete
-    std::cerr << "ndsid decode: " << a.log << ": reading stopped after " << c.frames << " frames: " << reader.io_error()
-              << "\n";
-    return 65;  // EX_DATAERR
-  }
-  if (!reader.io_error().empty()) {
-    std::cerr << "ndsid decode: " << a.log << ": not read to its end: " << reader.io_error() << "\n";
+    std::cerr << "ndsid decode: " << a.log << ": not read to its end: reading stopped after " << c.frames
+              << " frames: " << reader.io_error() << "\n";
     return kExitIo;
   }
   return 0;
