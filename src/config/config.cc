@@ -277,6 +277,17 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
     CheckRange(id, "max_iterations", ic.max_iterations, 1, 100000);
     ic.threads = id.Integer("threads", ic.threads);
     CheckRange(id, "threads", ic.threads, 1, 256);
+    if (id.Has("outputs")) {
+      const std::vector<std::string> outputs = id.Strings("outputs", {"a_y"});
+      if (outputs == std::vector<std::string>{"a_y"}) {
+        ic.yaw_rate_output = false;
+      } else if (outputs == std::vector<std::string>{"a_y", "yaw_rate"} ||
+                 outputs == std::vector<std::string>{"yaw_rate", "a_y"}) {
+        ic.yaw_rate_output = true;
+      } else {
+        id.Fail("outputs", "must be [a_y] or [a_y, yaw_rate] (a_y is always fitted)");
+      }
+    }
     id.Finish();
   }
   if (top.Has("adequacy")) {

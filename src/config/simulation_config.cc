@@ -44,6 +44,9 @@ const std::vector<EffectInfo>& EffectTable() {
       {"steer_delay_ms", "ms", "steering message carries d_sw from dt earlier than the accelerometer", "20..150",
        &SimEffects::steer_delay_ms},
       {"speed_scale_pct", "%", "speed scale error v_meas = (1 + eps) v", "+-3", &SimEffects::speed_scale_pct},
+      {"gyro_offset_degps", "deg/s", "yaw-rate sensor offset: r_meas = r + r0", "+-0.5",
+       &SimEffects::gyro_offset_degps},
+      {"gyro_scale_pct", "%", "yaw-rate sensor scale error: r_meas = (1 + k_r) r", "+-3", &SimEffects::gyro_scale_pct},
       {"mass_change_kg", "kg", "per-drive mass m_i = m + U(-dm, dm), Jz scaled by m_i/m", "0..300",
        &SimEffects::mass_change_kg},
   };
@@ -288,6 +291,8 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   require(e.roll_damping_ratio > 0.05 && e.roll_damping_ratio < 3.0, "effects.roll_damping_ratio in (0.05, 3)");
   require(std::fabs(e.superelevation_pct) <= 15.0, "effects.superelevation_pct in [-15, 15] %");
   require(std::fabs(e.speed_scale_pct) < 50.0, "effects.speed_scale_pct in (-50, 50) %");
+  require(std::fabs(e.gyro_offset_degps) <= 10.0, "effects.gyro_offset_degps in [-10, 10] deg/s");
+  require(std::fabs(e.gyro_scale_pct) < 50.0, "effects.gyro_scale_pct in (-50, 50) %");
   require(e.mass_change_kg >= 0.0 && e.mass_change_kg < 0.5 * v.mass_kg,
           "effects.mass_change_kg in [0, mass_kg/2) (a +- range)");
   for (double dm : e.mass_schedule_kg)

@@ -120,6 +120,16 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                   [&](const std::string& c) { return std::find(present.begin(), present.end(), c) != present.end(); }),
                    candidates.end());
+  if (options.candidates.empty()) {  // yaw-rate sensor effects: not scored on a_y alone (issue 11 item 4)
+    candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
+                                    [&](const std::string& c) {
+                                      const auto builtin = model::BuiltinEffectNames();
+                                      if (std::find(builtin.begin(), builtin.end(), c) == builtin.end()) return false;
+                                      const model::ModelSpec one = model::ModelSpec::FromNames({c});
+                                      return !one.effects().empty() && one.effects()[0]->info().yaw_rate_sensor;
+                                    }),
+                     candidates.end());
+  }
   // One model holding every candidate at its neutral value: its Jacobian there gives the
   // fitted parameters' columns J and every candidate's sensitivity column at once.
   std::vector<std::string> all = present;

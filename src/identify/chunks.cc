@@ -52,6 +52,7 @@ std::vector<float> EstimateBank(const stats::Segment& seg, double tau_s) {
   std::vector<double> x(n);
   for (size_t k = 0; k < n; ++k) {
     const auto& s = seg.samples[k];
+    if (!std::isfinite(s.yaw_rate_radps)) return g;  // a gap in the yaw rate: a_y alone
     x[k] = static_cast<double>(s.speed_mps) * s.yaw_rate_radps - s.lat_accel_mps2;
   }
   const double a = seg.dt_s / (tau_s + seg.dt_s);
@@ -106,9 +107,11 @@ SegmentList Pointers(const std::vector<stats::Segment>& segments) {
 }
 
 void EvaluateChunk(const Chunk& chunk, size_t burn, double wheelbase_m, const model::ModelSpec& spec,
-                   const std::vector<double>& params, std::vector<double>& residuals, std::vector<double>& jacobian) {
+                   const std::vector<double>& params, std::vector<double>& residuals, std::vector<double>& jacobian,
+                   bool with_yaw_rate) {
   const std::vector<double> ones(params.size(), 1.0);
-  auto cost = MakeChunkCost(chunk, burn, wheelbase_m, spec, ones);
+  auto cost = MakeChunkCost(chunk, burn, wheelbase_m, spec, ones,
+                            std::make_shared<const OutputWeights>(OutputWeights{1.0, with_yaw_rate ? 1.0 : 0.0}));
   const int m = cost->num_residuals();
   residuals.assign(static_cast<size_t>(m), 0.0);
   jacobian.assign(static_cast<size_t>(m) * params.size(), 0.0);

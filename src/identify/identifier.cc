@@ -60,16 +60,29 @@ class PriorCost final : public ceres::CostFunction {
   double sqrt_w_ = 0;
 };
 
-// sigma_e^2 * tau of the chunk residuals at theta (the weight of a prior).
-double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const double* theta) {
-  std::vector<std::vector<double>> res;
+// The chunk residuals at theta, one series per chunk and output: a_y series in `a`, yaw-rate
+// series in `r` (as weighted by the costs' current weights).
+void EvaluateSeries(const std::vector<std::unique_ptr<ChunkCost>>& costs, const std::vector<size_t>& n_a,
+                    const double* theta, std::vector<std::vector<double>>& a, std::vector<std::vector<double>>& r) {
+  a.clear();
+  r.clear();
   const double* params[] = {theta};
-  for (const auto& cost : costs) {
-    std::vector<double> e(static_cast<size_t>(cost->num_residuals()));
-    cost->Evaluate(params, e.data(), nullptr);
-    res.push_back(std::move(e));
+  for (size_t c = 0; c < costs.size(); ++c) {
+    std::vector<double> e(static_cast<size_t>(costs[c]->num_residuals()));
+    costs[c]->Evaluate(params, e.data(), nullptr);
+    a.emplace_back(e.begin(), e.begin() + static_cast<long>(n_a[c]));
+    if (e.size() > n_a[c]) r.emplace_back(e.begin() + static_cast<long>(n_a[c]), e.end());
   }
-  return ResidualNoiseLevel(res);
+}
+
+// sigma_e^2 * tau of the (weighted) chunk residuals at theta, each output's series separately
+// (the weight of a prior).
+double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const std::vector<size_t>& n_a,
+                  const double* theta) {
+  std::vector<std::vector<double>> a, r;
+  EvaluateSeries(costs, n_a, theta, a, r);
+  a.insert(a.end(), r.begin(), r.end());
+  return ResidualNoiseLevel(a);
 }
 
 }  // namespace
@@ -124,6 +137,26 @@ double Identifier::Rmse(const std::vector<double>& params, const SegmentList& se
     model::SimulateModel(spec_, params.data(), wheelbase_m_, c.Inputs(), a_y.data());
     for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
       const double e = c.samples[k].lat_accel_mps2 - a_y[k];
+      sum += e * e;
+      ++n;
+    }
+  }
+  if (count) *count = n;
+  return n ? std::sqrt(sum / static_cast<double>(n)) : -1.0;
+}
+
+double Identifier::RmseYawRate(const std::vector<double>& params, const SegmentList& segments, size_t* count) const {
+  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_loads_);
+  double sum = 0;
+  size_t n = 0;
+  std::vector<double> a_y, r;
+  for (const Chunk& c : chunks) {
+    if (!c.has_yaw_rate()) continue;
+    a_y.resize(c.n);
+    r.resize(c.n);
+    model::SimulateModel(spec_, params.data(), wheelbase_m_, c.Inputs(), a_y.data(), nullptr, r.data());
+    for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
+      const double e = c.samples[k].yaw_rate_radps - r[k];
       sum += e * e;
       ++n;
     }
@@ -306,14 +339,45 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
+  // Outputs: a_y alone (weight 1: the classical fit), or a_y and the yaw rate, each divided by
+  // the square root of its noise level sigma^2 tau, first at the start values, then (below) at
+  // the solution, refitting once when the ratio of the two moved by more than 1.5x.
+  size_t chunks_with_yaw = 0;
+  for (const Chunk& c : chunks) chunks_with_yaw += c.has_yaw_rate() ? 1 : 0;
+  const bool two_outputs = config_.yaw_rate_output && chunks_with_yaw > 0;
+  auto weights = std::make_shared<OutputWeights>();
+  weights->yaw_rate = two_outputs ? 1.0 : 0.0;
   std::vector<std::unique_ptr<CostFn>> costs;
+  std::vector<size_t> n_a;  // a_y residuals per cost (the yaw-rate ones follow)
   costs.reserve(chunks.size());
-  size_t n_res = 0;
+  size_t n_res = 0, n_res_a = 0;
   for (const Chunk& c : chunks) {
-    costs.push_back(MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale));
+    const size_t burn = BurnInSamples(c, config_.burn_in_s);
+    costs.push_back(MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, weights));
     problem.AddResidualBlock(costs.back().get(), nullptr, theta.data());
     n_res += static_cast<size_t>(costs.back()->num_residuals());
+    n_a.push_back(c.n - burn);
+    n_res_a += c.n - burn;
   }
+  // Unweighted noise levels (sigma^2 tau) of each output at theta; sets the weights from them.
+  double level_a = 0, level_r = 0;
+  auto set_weights = [&]() {
+    if (!two_outputs) return false;
+    const OutputWeights old = *weights;
+    *weights = {1.0, 1.0};
+    std::vector<std::vector<double>> a, rr;
+    EvaluateSeries(costs, n_a, theta.data(), a, rr);
+    level_a = ResidualNoiseLevel(a);
+    level_r = ResidualNoiseLevel(rr);
+    if (!(level_a > 0) || !(level_r > 0) || !std::isfinite(level_a) || !std::isfinite(level_r)) {
+      *weights = old;
+      return false;
+    }
+    *weights = {1.0 / std::sqrt(level_a), 1.0 / std::sqrt(level_r)};
+    const double ratio_old = old.yaw_rate / old.a_y, ratio_new = weights->yaw_rate / weights->a_y;
+    return ratio_new * ratio_new > 1.5 * ratio_old * ratio_old || ratio_new * ratio_new < ratio_old * ratio_old / 1.5;
+  };
+  set_weights();
   std::vector<int> fixed, free;
   for (int i = 0; i < np; ++i) {
     (bounds[i].fixed ? fixed : free).push_back(i);
@@ -335,7 +399,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   }
   double prior_weight = 0;
   if (!priors.empty()) {
-    prior_weight = NoiseLevel(costs, theta.data());
+    prior_weight = NoiseLevel(costs, n_a, theta.data());
     for (auto& pc : priors) pc->set_weight(prior_weight);
   }
 
@@ -350,9 +414,19 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   r.iterations = static_cast<int>(summary.iterations.size());
+  if (two_outputs && summary.IsSolutionUsable() && set_weights()) {
+    // The outputs' noise levels at the solution differ from those at the start: refit once.
+    if (!priors.empty()) {
+      prior_weight = NoiseLevel(costs, n_a, theta.data());
+      for (auto& pc : priors) pc->set_weight(prior_weight);
+    }
+    ceres::Solve(options, &problem, &summary);
+    r.iterations += static_cast<int>(summary.iterations.size());
+    spdlog::debug("two outputs: refitted with weights a_y {:.4g}, yaw rate {:.4g}", weights->a_y, weights->yaw_rate);
+  }
   if (!priors.empty() && summary.IsSolutionUsable()) {
     // The priors' weight was the noise level at the start; refit once if the fit moved it much.
-    const double w = NoiseLevel(costs, theta.data());
+    const double w = NoiseLevel(costs, n_a, theta.data());
     if (w > 0 && (w > 2 * prior_weight || w < 0.5 * prior_weight)) {
       prior_weight = w;
       for (auto& pc : priors) pc->set_weight(prior_weight);
@@ -371,9 +445,11 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   Eigen::MatrixXd jtj = Eigen::MatrixXd::Zero(np, np);
   std::vector<Eigen::VectorXd> chunk_scores;
   std::vector<std::vector<double>> chunk_residuals;
-  double rss = 0;
+  double rss = 0, rss_a = 0, rss_r = 0;  // weighted (all), unweighted per output
+  std::vector<std::vector<double>> series_a, series_r;
   const double* params[] = {theta.data()};
-  for (const auto& cost : costs) {
+  for (size_t ci = 0; ci < costs.size(); ++ci) {
+    const auto& cost = costs[ci];
     const int m = cost->num_residuals();
     std::vector<double> e(static_cast<size_t>(m));
     std::vector<double> jac(static_cast<size_t>(m) * np);
@@ -384,12 +460,30 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
     jtj += J.transpose() * J;  // the model output's Jacobian is -J: signs cancel here and below
     chunk_scores.push_back(J.transpose() * ev);
     rss += ev.squaredNorm();
-    chunk_residuals.push_back(std::move(e));
+    const auto split = e.begin() + static_cast<long>(n_a[ci]);
+    for (auto it = e.begin(); it != split; ++it) rss_a += (*it / weights->a_y) * (*it / weights->a_y);
+    for (auto it = split; it != e.end(); ++it) rss_r += (*it / weights->yaw_rate) * (*it / weights->yaw_rate);
+    // One series per output for the autocorrelation time (the two are not one time series).
+    chunk_residuals.emplace_back(e.begin(), split);
+    series_a.emplace_back(e.begin(), split);
+    if (split != e.end()) {
+      chunk_residuals.emplace_back(split, e.end());
+      series_r.emplace_back(split, e.end());
+    }
   }
-  r.residuals_train = n_res;
+  r.residuals_train = n_res_a;
+  r.residuals_train_yaw = n_res - n_res_a;
   r.chunks = chunks.size();
   for (const Chunk& c : chunks) r.train_hours += c.n * c.dt_s / 3600.0;
-  r.rmse_train_mps2 = std::sqrt(rss / static_cast<double>(n_res));
+  r.rmse_train_mps2 = std::sqrt(rss_a / static_cast<double>(n_res_a));
+  r.yaw_rate_output = two_outputs;
+  if (two_outputs) {
+    r.rmse_train_yaw_radps = std::sqrt(rss_r / static_cast<double>(n_res - n_res_a));
+    r.noise_level_a_y = ResidualNoiseLevel(series_a) / (weights->a_y * weights->a_y);
+    r.noise_level_yaw_rate = ResidualNoiseLevel(series_r) / (weights->yaw_rate * weights->yaw_rate);
+  } else {
+    r.noise_level_a_y = ResidualNoiseLevel(series_a);
+  }
   if (!std::isfinite(r.rmse_train_mps2)) {
     r.reason = "non-finite residuals at the solution";
     return r;
@@ -506,6 +600,17 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
       }
       if (pe.at_bound) rep.notes.push_back(pe.name + " ended on its bound");
     }
+    if (two_outputs) {
+      char note[320];
+      std::snprintf(note, sizeof note,
+                    "outputs: a_y and yaw rate (%zu of %zu chunks have a yaw rate), each weighted by 1/sqrt(sigma^2 tau): "
+                    "a_y %.3g (m/s^2)^2, yaw rate %.3g (deg/s)^2 per sample",
+                    chunks_with_yaw, chunks.size(), r.noise_level_a_y,
+                    r.noise_level_yaw_rate * (180 / M_PI) * (180 / M_PI));
+      rep.notes.push_back(note);
+    } else if (config_.yaw_rate_output) {
+      rep.notes.push_back("outputs: a_y alone (identification.outputs asks for the yaw rate, but no chunk has one)");
+    }
     for (const auto& pc : priors) {
       for (const config::ParameterPrior& pr : config_.priors) {
         if (pr.name == spec_.param_name(pc->index())) {
@@ -517,6 +622,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   }
 
   if (!validation.empty()) r.rmse_validation_mps2 = Rmse(r.AllValues(), validation, &r.residuals_validation);
+  if (!validation.empty() && two_outputs) r.rmse_validation_yaw_radps = RmseYawRate(r.AllValues(), validation);
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);
   if (!r.valid) r.reason = "non-finite EG or standard error";

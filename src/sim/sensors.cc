@@ -82,7 +82,9 @@ void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) 
   out.a_y_meas_mps2.push_back(st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot + fx.accel_bias_mps2 + disturbance +
                               nz.lat_accel_mps2 * n_ay);
   out.a_x_meas_mps2.push_back(st.a_x + nz.long_accel_mps2 * n_ax);
-  out.yaw_rate_meas_radps.push_back(st.r + nz.yaw_rate_degps * kDeg * n_r);
+  // Gyro: r_meas = (1 + k_r) r + r0 + noise.
+  out.yaw_rate_meas_radps.push_back((1.0 + fx.gyro_scale_pct / 100.0) * st.r + fx.gyro_offset_degps * kDeg +
+                                    nz.yaw_rate_degps * kDeg * n_r);
 
   out.valid.push_back(st.t >= kValidAfter_s ? 1 : 0);
   out.esp_active.push_back((std::fabs(st.a_y) > 0.8 * mu_esp_ * g || std::fabs(st.beta) > 4.0 * kDeg) ? 1 : 0);

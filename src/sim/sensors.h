@@ -1,6 +1,6 @@
 // The car's sensors as the bus reports them (before DBC quantisation): the hidden sensor-side
 // effects (bias, steering offset, roll and lever arm on the accelerometer, steering delay, speed
-// scale) plus white noise and a slow zero-mean accelerometer disturbance. Private to src/sim.
+// scale, gyro offset and scale) plus white noise and a slow zero-mean accelerometer disturbance. Private to src/sim.
 #pragma once
 
 #include <cstdint>

@@ -88,6 +88,22 @@ TEST(Config, RejectsBrokenYamlWithLocation) {
   EXPECT_NE(e.find("YAML syntax"), std::string::npos) << e;
 }
 
+// Catches: an identification.outputs value read wrongly, or a bad one accepted or reported
+// without its place (the default stays a_y alone).
+TEST(Config, IdentificationOutputsAcceptsAyOrAyAndYawRateWithLocatedErrors) {
+  EXPECT_FALSE(ParseConfig(kMinimal, "car.yaml").identification.yaw_rate_output);
+  EXPECT_FALSE(ParseConfig(std::string(kMinimal) + "identification: {outputs: [a_y]}\n", "car.yaml").identification.yaw_rate_output);
+  EXPECT_TRUE(ParseConfig(std::string(kMinimal) + "identification:\n  outputs: [a_y, yaw_rate]\n", "car.yaml")
+                  .identification.yaw_rate_output);
+  for (const char* bad : {"[yaw_rate]", "[a_y, roll_rate]", "[a_y, yaw_rate, a_y]", "[]"}) {
+    const std::string e = ErrorOf(std::string(kMinimal) + "identification:\n  outputs: " + bad + "\n");
+    EXPECT_NE(e.find("car.yaml:9"), std::string::npos) << bad << ": " << e;
+    EXPECT_NE(e.find("identification.outputs"), std::string::npos) << bad << ": " << e;
+  }
+  EXPECT_NE(ErrorOf(std::string(kMinimal) + "identification:\n  outputs: yaw\n").find("identification.outputs"),
+            std::string::npos);
+}
+
 TEST(Config, RejectsInitialOutsideBox) {
   const std::string e =
       ErrorOf(std::string(kMinimal) + "identification:\n  parameters:\n    is: {min: 14, max: 15, initial: 20}\n");

@@ -128,3 +128,55 @@ inline std::vector<stats::Segment> SyntheticSegmentsWithEffects(const model::Mod
 }
 
 }  // namespace ndsid::testing
+
+namespace ndsid::testing {
+
+// Two outputs: like SyntheticSegmentsWithEffects, but every segment also carries the modelled
+// *measured* yaw rate (r plus the truth's yaw-rate measurement terms, e.g. gyro_offset) with
+// white noise noise_radps. When crossfall_sd_mps2 > 0, `spec` must contain "crossfall": each
+// segment gets its own crossfall drawn from N(0, sd) (a road bank constant along the segment),
+// returned in crossfall_out (one per segment) when given.
+inline std::vector<stats::Segment> SyntheticTwoOutputSegments(const model::ModelSpec& spec, std::vector<double> truth,
+                                                               int count, double seconds, double noise_mps2,
+                                                               double noise_radps, uint64_t seed,
+                                                               double crossfall_sd_mps2 = 0.0,
+                                                               std::vector<double>* crossfall_out = nullptr) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  int crossfall_index = -1;
+  for (int i = 0; i < spec.num_params(); ++i) {
+    if (spec.param_name(i) == "crossfall_mps2") crossfall_index = i;
+  }
+  std::vector<stats::Segment> out;
+  constexpr double kFine = 0.001, kDt = 0.02;
+  constexpr int kDecimate = 20;
+  for (int s = 0; s < count; ++s) {
+    const RandomInputs inputs(rng);
+    if (crossfall_sd_mps2 > 0 && crossfall_index >= 0) {
+      truth[static_cast<size_t>(crossfall_index)] = crossfall_sd_mps2 * gauss(rng);
+      if (crossfall_out) crossfall_out->push_back(truth[static_cast<size_t>(crossfall_index)]);
+    }
+    const size_t n_fine = static_cast<size_t>(seconds / kFine);
+    std::vector<float> in(2 * n_fine);
+    for (size_t k = 0; k < n_fine; ++k) {
+      in[2 * k] = static_cast<float>(inputs.steer(k * kFine));
+      in[2 * k + 1] = static_cast<float>(inputs.speed(k * kFine));
+    }
+    std::vector<double> y(n_fine), r(n_fine);
+    model::SimulateModel(spec, truth.data(), kWheelbase, model::InputSeries{&in[0], &in[1], 2, n_fine, kFine},
+                         y.data(), nullptr, r.data());
+    stats::Segment seg;
+    seg.drive_id = s;
+    seg.dt_s = kDt;
+    seg.has_yaw_rate = true;
+    for (size_t k = 0; k < n_fine; k += kDecimate) {
+      const double a = y[k] + noise_mps2 * gauss(rng);
+      const double yaw = r[k] + noise_radps * gauss(rng);
+      seg.samples.push_back({in[2 * k], in[2 * k + 1], static_cast<float>(a), static_cast<float>(yaw), 0.0f});
+    }
+    out.push_back(std::move(seg));
+  }
+  return out;
+}
+
+}  // namespace ndsid::testing

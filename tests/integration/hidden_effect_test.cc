@@ -363,7 +363,9 @@ TEST(HiddenEffectLong, EffectOutsideTheLibraryIsReportedUnexplained) {
   ASSERT_TRUE(fit.valid);
   discover::DiagnosisOptions opt;
   for (const auto& n : model::BuiltinEffectNames()) {
-    if (n != "steer_delay" && n != "relaxation" && n != "road_bank") opt.candidates.push_back(n);
+    if (n != "steer_delay" && n != "relaxation" && n != "road_bank" &&
+        !model::ModelSpec::FromNames({n}).effects()[0]->info().yaw_rate_sensor)  // a_y-only diagnosis
+      opt.candidates.push_back(n);
   }
   const discover::Diagnosis d = discover::Diagnose(id, fit.AllValues(), run.window.training, opt);
   PrintDiagnosis(d);

@@ -47,6 +47,23 @@ TEST(Effects, AccelBiasShiftsLateralAccelByBEverywhere) {
   }
 }
 
+TEST(Effects, GyroOffsetAndScaleFollowTheirEquationEverywhere) {
+  // Catches a gyro error applied to the truth, only while moving, or with the wrong unit:
+  // r_meas,on - r_meas,off = k_r r + r0 (0.4 deg/s, 2 %), also at standstill.
+  const auto p = RunPair([](config::SimEffects& e) {
+    e.gyro_offset_degps = 0.4;
+    e.gyro_scale_pct = 2.0;
+  });
+  ExpectSameTruth(p);
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    ASSERT_EQ(a.yaw_rate_radps, b.yaw_rate_radps);
+    for (size_t i = 0; i < a.size(); ++i)
+      ASSERT_NEAR(b.yaw_rate_meas_radps[i] - a.yaw_rate_meas_radps[i], 0.02 * a.yaw_rate_radps[i] + 0.4 * M_PI / 180.0,
+                  1e-12);
+  }
+}
+
 TEST(Effects, SteerOffsetShiftsMeasuredSteeringByD0) {
   // Catches an offset applied at the road wheel (/is) or in the wrong unit.
   const auto p = RunPair([](config::SimEffects& e) { e.steer_offset_deg = 1.5; });

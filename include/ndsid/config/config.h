@@ -112,6 +112,10 @@ struct IdentificationConfig {
   double validation_fraction = 0.2;  // share of drives held out for validation RMSE
   int max_iterations = 50;
   int threads = 2;
+  // identification.outputs: [a_y] (default) or [a_y, yaw_rate]. With the yaw rate, both outputs'
+  // residuals are fitted in one problem, each divided by its own noise level; chunks without a
+  // yaw rate signal fall back to a_y alone.
+  bool yaw_rate_output = false;
 };
 
 struct AdequacyConfig {

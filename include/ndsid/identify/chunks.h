@@ -20,6 +20,10 @@ struct Chunk {
   std::shared_ptr<const std::vector<float>> bank;  // per sample of the chunk (empty: no yaw rate)
   double load_ratio = 1.0;                         // the drive's load ratio (load_change)
 
+  // A finite measured yaw rate on every sample (the bank is estimated only then); without one
+  // the chunk has a_y as its only output and road_bank is inert on it.
+  bool has_yaw_rate() const { return bank && !bank->empty(); }
+
   model::InputSeries Inputs() const {
     constexpr size_t kStride = sizeof(stats::SegmentSample) / sizeof(float);
     model::InputSeries in{&samples[0].steer_rad, &samples[0].speed_mps, kStride, n, dt_s};
@@ -34,7 +38,8 @@ struct Chunk {
 
 // Road bank from the kinematic residual, g sin(theta) = v (beta' + r) - a_y,meas ~ v r - a_y,meas,
 // low-passed forwards and backwards (zero phase) with time constant tau_s to remove the
-// transient v beta' and the noise. Empty when the segment has no yaw rate.
+// transient v beta' and the noise. Empty when the segment has no yaw rate or any sample's yaw
+// rate is not finite (the segment is then fitted on a_y alone).
 std::vector<float> EstimateBank(const stats::Segment& segment, double tau_s = 1.0);
 
 // Long segments are cut into chunks of about chunk_s (the last piece joins its predecessor
@@ -58,9 +63,12 @@ std::vector<double> Extend(const model::ModelSpec& from, const std::vector<doubl
 
 // Residuals e (k >= burn) of one chunk of `spec` at the full parameter vector `params`, and
 // their Jacobian d(a_y,meas - a_y,model)/d(params), row-major (residuals x spec.num_params()),
-// by automatic differentiation. The discovery stage's score tests are built on it.
+// by automatic differentiation. The discovery stage's score tests are built on it. With
+// with_yaw_rate and a chunk that has a yaw rate, the yaw-rate residuals r_meas - r_model
+// (unweighted) follow the a_y ones.
 void EvaluateChunk(const Chunk& chunk, size_t burn, double wheelbase_m, const model::ModelSpec& spec,
-                   const std::vector<double>& params, std::vector<double>& residuals, std::vector<double>& jacobian);
+                   const std::vector<double>& params, std::vector<double>& residuals, std::vector<double>& jacobian,
+                   bool with_yaw_rate = false);
 
 // Pointers to the segments, for the fitting functions.
 SegmentList Pointers(const std::vector<stats::Segment>& segments);

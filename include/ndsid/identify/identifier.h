@@ -62,8 +62,17 @@ struct IdentificationResult {
   double eg_deg_per_g = 0;
   double eg_se_deg_per_g = 0;
   std::vector<double> correlation;  // row-major over all parameters (base then effects); 0 for fixed ones
-  double rmse_train_mps2 = 0;
+  double rmse_train_mps2 = 0;        // a_y, unweighted, whatever the outputs
   double rmse_validation_mps2 = -1;  // -1: no validation data
+  // Outputs fitted (identification.outputs): the yaw rate only when configured and the data
+  // have one; its RMSEs are -1 otherwise. Noise levels sigma^2 tau of each output's residuals at
+  // the solution (the weights were 1/sqrt of them), 0 for an output not fitted.
+  bool yaw_rate_output = false;
+  double rmse_train_yaw_radps = -1;
+  double rmse_validation_yaw_radps = -1;
+  size_t residuals_train_yaw = 0;
+  double noise_level_a_y = 0;         // (m/s^2)^2 * samples
+  double noise_level_yaw_rate = 0;    // (rad/s)^2 * samples
   size_t residuals_train = 0;
   size_t residuals_validation = 0;
   size_t chunks = 0;
@@ -94,6 +103,9 @@ class Identifier {
   // effects) over the segments, burn-in dropped as in the fit; -1 when there are no residuals.
   double Rmse(const std::vector<double>& params, const SegmentList& segments, size_t* count = nullptr) const;
   double Rmse(const model::Params<double>& p, const SegmentList& segments, size_t* count = nullptr) const;
+  // The same for the yaw rate (the modelled measured yaw rate, gyro effects included) over the
+  // segments that have one; -1 when there are none.
+  double RmseYawRate(const std::vector<double>& params, const SegmentList& segments, size_t* count = nullptr) const;
 
   // Full parameter vector: base values from p, effect parameters at their initial values.
   std::vector<double> FullVector(const model::Params<double>& p) const;

@@ -41,6 +41,9 @@ struct EffectInfo {
   std::string signature;     // what its absence leaves in the residual
   std::vector<EffectParam> params;
   int num_states = 0;        // extra states carried between samples
+  // Acts only through the yaw-rate measurement (and what reads the measured yaw rate, road_bank's
+  // observer): gyro_offset, gyro_scale. Not a default candidate of the a_y-only diagnosis.
+  bool yaw_rate_sensor = false;
 };
 
 // Measured inputs of one stretch, read at fractional sample positions (for time shifts).
@@ -128,6 +131,10 @@ class Effect {
   // Measurement: returns the term added to the measured a_y.
   virtual double Measure(const double* eta, const MeasurementContext<double>& m, const double* states) const = 0;
   virtual Jet Measure(const Jet* eta, const MeasurementContext<Jet>& m, const Jet* states) const = 0;
+  // Yaw-rate measurement: returns the term added to the measured yaw rate r_meas = r + ... (the
+  // second output of a two-output fit; gyro_offset, gyro_scale).
+  virtual double MeasureYawRate(const double* eta, const MeasurementContext<double>& m, const double* states) const = 0;
+  virtual Jet MeasureYawRate(const Jet* eta, const MeasurementContext<Jet>& m, const Jet* states) const = 0;
   // States: initialise at the first sample, advance by dt after each step.
   virtual void InitStates(const double* eta, const Params<double>& p, double l, const ModelInputs<double>& u,
                           const State<double>& x, double a_y, double* states) const = 0;
@@ -146,6 +153,7 @@ class Effect {
 //   template <class T> void ForcesT(const T* eta, const Params<T>&, double l, const AxleSlip<T>&,
 //                                   const State<T>&, const ModelInputs<T>&, const T* states, ForceTerms<T>&) const;
 //   template <class T> T MeasureT(const T* eta, const MeasurementContext<T>&, const T* states) const;
+//   template <class T> T MeasureYawRateT(const T* eta, const MeasurementContext<T>&, const T* states) const;
 //   template <class T> void InitStatesT(...), AdvanceStatesT(...)
 template <class Derived>
 class EffectImpl : public Effect {
@@ -171,6 +179,12 @@ class EffectImpl : public Effect {
   }
   Jet Measure(const Jet* e, const MeasurementContext<Jet>& m, const Jet* st) const override {
     return self().MeasureT(e, m, st);
+  }
+  double MeasureYawRate(const double* e, const MeasurementContext<double>& m, const double* st) const override {
+    return self().MeasureYawRateT(e, m, st);
+  }
+  Jet MeasureYawRate(const Jet* e, const MeasurementContext<Jet>& m, const Jet* st) const override {
+    return self().MeasureYawRateT(e, m, st);
   }
   void InitStates(const double* e, const Params<double>& p, double l, const ModelInputs<double>& u,
                   const State<double>& x, double a_y, double* st) const override {
@@ -199,6 +213,8 @@ class EffectImpl : public Effect {
                const T*, ForceTerms<T>&) const {}
   template <class T>
   T MeasureT(const T*, const MeasurementContext<T>&, const T*) const { return T(0.0); }
+  template <class T>
+  T MeasureYawRateT(const T*, const MeasurementContext<T>&, const T*) const { return T(0.0); }
   template <class T>
   void InitStatesT(const T*, const Params<T>&, double, const ModelInputs<T>&, const State<T>&, T, T*) const {}
   template <class T>

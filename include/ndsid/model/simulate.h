@@ -32,15 +32,19 @@ State<T> SteadyState(const Params<T>& p, double l, const U& steer_wheel_rad, con
 
 // Optional per-sample traces of a simulation (for comparison reports and monitoring).
 struct SimulationTrace {
-  std::vector<double> yaw_rate_radps;
-  std::vector<double> a_y_cg_mps2;  // before measurement effects
+  std::vector<double> yaw_rate_radps;       // the model's state r (before measurement effects)
+  std::vector<double> a_y_cg_mps2;          // before measurement effects
+  std::vector<double> yaw_rate_meas_radps;  // the modelled *measured* yaw rate (r + effects' terms)
+  std::vector<double> effect_states;        // row-major n x spec.num_states() (e.g. road_bank's b)
 };
 
 // The full model (base + effects). `params` holds the base six then every effect's parameters
-// (ModelSpec layout). Writes the modelled *measured* lateral acceleration to a_meas_out[0..n).
+// (ModelSpec layout). Writes the modelled *measured* lateral acceleration to a_meas_out[0..n)
+// and, when r_meas_out is given, the modelled *measured* yaw rate (r + the effects' yaw-rate
+// measurement terms) to r_meas_out[0..n): the two outputs of the fit.
 template <typename T>
 void SimulateModel(const ModelSpec& spec, const T* params, double l, const InputSeries& in, T* a_meas_out,
-                   SimulationTrace* trace = nullptr) {
+                   SimulationTrace* trace = nullptr, T* r_meas_out = nullptr) {
   const size_t n = in.n;
   if (n == 0) return;
   const Params<T> p = Params<T>::FromArray(params);
@@ -74,6 +78,12 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
     for (size_t e = 0; e < ne; ++e) a += effects[e]->Measure(eta(e), m, st(e));
     return a;
   };
+  auto measure_yaw_rate = [&](const Derivative<T>& d, const State<T>& x, const ModelInputs<T>& u) {
+    T r = x.r;
+    const MeasurementContext<T> m{d.a_y, d.r_dot, x.r, u.speed_mps};
+    for (size_t e = 0; e < ne; ++e) r += effects[e]->MeasureYawRate(eta(e), m, st(e));
+    return r;
+  };
 
   ModelInputs<T> u0 = inputs_at(0);
   State<T> x = SteadyState(p, l, u0.steer_rad, u0.speed_mps);
@@ -81,17 +91,26 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
     const Derivative<T> d0 = derivative(x, u0);
     for (size_t e = 0; e < ne; ++e) effects[e]->InitStates(eta(e), p, l, u0, x, d0.a_y, st(e));
   }
+  const size_t ns = static_cast<size_t>(spec.num_states());
   if (trace) {
     trace->yaw_rate_radps.resize(n);
     trace->a_y_cg_mps2.resize(n);
+    trace->yaw_rate_meas_radps.resize(n);
+    trace->effect_states.resize(n * ns);
   }
   const T half(0.5 * in.dt_s), full(in.dt_s), sixth(in.dt_s / 6.0);
   for (size_t k = 0; k < n; ++k) {
     const Derivative<T> k1 = derivative(x, u0);
     a_meas_out[k] = measure(k1, x, u0);
+    if (r_meas_out || trace) {
+      const T r_meas = measure_yaw_rate(k1, x, u0);
+      if (r_meas_out) r_meas_out[k] = r_meas;
+      if (trace) trace->yaw_rate_meas_radps[k] = ScalarOf(r_meas);
+    }
     if (trace) {
       trace->yaw_rate_radps[k] = ScalarOf(x.r);
       trace->a_y_cg_mps2[k] = ScalarOf(k1.a_y);
+      for (size_t j = 0; j < ns; ++j) trace->effect_states[k * ns + j] = ScalarOf(states[j]);
     }
     if (k + 1 == n) break;
     const ModelInputs<T> u1 = inputs_at(k + 1);

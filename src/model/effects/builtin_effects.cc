@@ -24,6 +24,8 @@ const std::vector<std::pair<std::string, Factory>>& Table() {
       {"accel_bias", MakeAccelBias},           // measurement
       {"lever_arm", MakeLeverArm},
       {"roll", MakeRoll},
+      {"gyro_offset", MakeGyroOffset},         // yaw-rate measurement (offset before scale)
+      {"gyro_scale", MakeGyroScale},
   };
   return table;
 }

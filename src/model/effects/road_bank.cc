@@ -15,7 +15,9 @@
 // observer sees only the yaw rate, whose noise is independent of the accelerometer's, so sensor
 // effects on a_y (bias, roll, lever arm) stay in the residual where the diagnosis can find them.
 // The low-passed kinematic estimate only initialises b at a stretch's first sample. Needs yaw
-// rate: without it b stays 0 and the effect is inert.
+// rate: without it b stays 0 and the effect is inert. The yaw rate it reads is the measurement as
+// corrected by the model's gyro effects (gyro_offset, gyro_scale: r = (r_meas - r0)/(1 + k_r)),
+// so with them in the model the bank cannot stand in for a gyro offset (docs/two-outputs.md).
 #include "builtin_effects.h"
 
 namespace ndsid::model {
