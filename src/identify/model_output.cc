@@ -21,7 +21,7 @@ std::vector<ChunkOutput> SimulateChunks(const Identifier& identifier, const std:
       model::SimulationTrace trace;
       model::SimulateModel(identifier.spec(), params.data(), identifier.wheelbase_m(), c.Inputs(),
                            o.a_y_model_mps2.data(), &trace);
-      o.yaw_rate_model_radps = std::move(trace.yaw_rate_radps);
+      o.yaw_rate_model_radps = std::move(trace.yaw_rate_meas_radps);  // r + gyro effects: comparable to r_meas
       out.push_back(std::move(o));
     }
   }

@@ -17,7 +17,7 @@ struct ChunkOutput {
   size_t n = 0;
   size_t burn_in = 0;        // leading samples the fit does not score (unknown initial state)
   std::vector<double> a_y_model_mps2;       // modelled measured a_y
-  std::vector<double> yaw_rate_model_radps;
+  std::vector<double> yaw_rate_model_radps;  // modelled measured yaw rate (r + gyro_offset, gyro_scale terms)
 };
 
 // params: full vector of identifier.spec() (base six, then effect parameters).
