@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Keeps docs/architecture.md and the source tree in agreement, and the stages acyclic.
 
-Catches: a stage folder added or removed without the page saying so; the page's order differing
+Catches: a doc linking outside the repository or to a page that does not exist; a stage folder added or removed without the page saying so; the page's order differing
 from the build's (NDSID_STAGES); a stage that links or includes a stage below it (a circle in the
 making); a third-party library leaking out of the one stage that owns it.
 
@@ -72,6 +72,16 @@ def main() -> int:
                     if stage == owner or (stage, inc) in ALLOWED:
                         continue
                     errors.append(f"{f.relative_to(root)} includes <{inc}>, which only {owner} may use")
+
+    # What users need is in the repository: README and docs/ link to no file outside it, and
+    # every relative link between them resolves.
+    for doc in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
+        text = doc.read_text()
+        if re.search(r"\]\([^)]*\.\./shared", text):
+            errors.append(f"{doc.relative_to(root)} links outside the repository (../shared)")
+        for target in re.findall(r"\]\(([^)#:\s]+\.md)(?:#[^)]*)?\)", text):
+            if not (doc.parent / target).resolve().exists():
+                errors.append(f"{doc.relative_to(root)} links to {target}, which does not exist")
 
     for e in errors:
         print("FAIL:", e)

@@ -1,4 +1,4 @@
-// The linear single-track (bicycle) model of ../shared/physics.md §1, written once and
+// The linear single-track (bicycle) model of docs/physics.md §1, written once and
 // templated on the scalar type so the simulator, the identifier (Ceres autodiff Jets), the
 // diagnosis and the tests all call the same equations. SI units, ISO 8855 signs.
 #pragma once
