@@ -18,7 +18,7 @@ ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names, const Effe
     return std::find(order.begin(), order.end(), a) < std::find(order.begin(), order.end(), b);
   });
   ModelSpec spec;
-  spec.library_ = std::make_shared<const EffectLibrary>(library);
+  spec.library_ = library;
   int p = kNumParams, s = 0;
   for (const std::string& name : sorted) {
     if (name == kLoadChange) {

@@ -7,28 +7,14 @@
 #include <string>
 #include <utility>
 
+#include "minimal_config.h"
 #include "ndsid/config/config.h"
 
 namespace ndsid::config {
 namespace {
 
-const char* kMinimal = R"(vehicle: {name: car, wheelbase_m: 2.6, mass_kg: 1500}
-source: {type: log, logs: [a.log]}
-dbc: b.dbc
-signals:
-  steering_wheel_angle: {message: M, signal: S, unit: deg}
-  vehicle_speed: {message: M, signal: V, unit: km/h}
-  lateral_acceleration: {message: M, signal: A, unit: m/s^2, sign: -1}
-)";
-
-std::string ErrorOf(const std::string& yaml) {
-  try {
-    ParseConfig(yaml, "car.yaml");
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::ErrorOf;
+using testing::kMinimal;
 
 // Catches: a positive-but-absurd number passing a "> 0" check and overflowing downstream.
 TEST(ConfigLimits, AbsurdNumbersAreLocatedErrors) {

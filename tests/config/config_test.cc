@@ -5,28 +5,14 @@
 #include <cmath>
 #include <string>
 
+#include "minimal_config.h"
 #include "ndsid/dbc/dbc_parser.h"
 
 namespace ndsid::config {
 namespace {
 
-const char* kMinimal = R"(vehicle: {name: car, wheelbase_m: 2.6, mass_kg: 1500}
-source: {type: log, logs: [a.log]}
-dbc: b.dbc
-signals:
-  steering_wheel_angle: {message: M, signal: S, unit: deg}
-  vehicle_speed: {message: M, signal: V, unit: km/h}
-  lateral_acceleration: {message: M, signal: A, unit: m/s^2, sign: -1}
-)";
-
-std::string ErrorOf(const std::string& yaml) {
-  try {
-    ParseConfig(yaml, "car.yaml");
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::ErrorOf;
+using testing::kMinimal;
 
 // Catches: unit or sign conversion done wrong (a right-positive a_y bus must become left-positive).
 TEST(Config, ConvertsUnitsAndSignToSi) {

@@ -18,7 +18,7 @@ namespace ndsid::model {
 
 class EffectLibrary {
  public:
-  // The built-in effects only.
+  // The built-in effects only (shared, built once).
   EffectLibrary();
   // Built-ins + the formulas. Throws ConfigError naming the formula on a parse error, a
   // built-in's name, or a formula that does not reduce to the base model at its neutral values.
@@ -42,7 +42,9 @@ class EffectLibrary {
     std::shared_ptr<const Effect> effect;
     bool builtin = true;
   };
-  std::vector<Entry> entries_;
+  static const std::shared_ptr<const std::vector<Entry>>& BuiltinEntries();
+  // Immutable and shared: copying a library (every ModelSpec keeps one) copies a pointer.
+  std::shared_ptr<const std::vector<Entry>> entries_;
 };
 
 }  // namespace ndsid::model

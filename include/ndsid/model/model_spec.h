@@ -21,7 +21,7 @@ class ModelSpec {
   static ModelSpec FromNames(const std::vector<std::string>& names,
                              const EffectLibrary& library = EffectLibrary::Builtin());
   // The library the model was built from (discovery extends the model from the same set).
-  const EffectLibrary& library() const { return *library_; }
+  const EffectLibrary& library() const { return library_; }
 
   const std::vector<std::shared_ptr<const Effect>>& effects() const { return effects_; }
   std::vector<std::string> effect_names() const;
@@ -45,7 +45,7 @@ class ModelSpec {
   bool per_drive_load() const { return per_drive_load_; }
 
  private:
-  std::shared_ptr<const EffectLibrary> library_ = std::make_shared<const EffectLibrary>(EffectLibrary::Builtin());
+  EffectLibrary library_;
   bool per_drive_load_ = false;
   std::vector<std::shared_ptr<const Effect>> effects_;
   std::vector<int> param_offsets_, state_offsets_;
