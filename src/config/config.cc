@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include "ndsid/common/atomic_file.h"
+#include "ndsid/common/closest_match.h"
 #include "ndsid/dbc/database.h"
 #include "yaml_reader.h"
 
@@ -139,29 +140,25 @@ bool RoleSignal::IsActive(double physical) const {
 }
 
 double UnitToSi(Role role, const std::string& unit) {
+  struct Unit {
+    const char* name;
+    double to_si;
+  };
+  std::vector<Unit> units;
   switch (role) {
-    case Role::kSteeringWheelAngle:
-      if (unit == "deg") return kDegToRad;
-      if (unit == "rad") return 1.0;
-      break;
-    case Role::kSpeed:
-      if (unit == "km/h" || unit == "kph") return 1.0 / 3.6;
-      if (unit == "m/s") return 1.0;
-      if (unit == "mph") return 0.44704;
-      break;
+    case Role::kSteeringWheelAngle: units = {{"deg", kDegToRad}, {"rad", 1.0}}; break;
+    case Role::kSpeed: units = {{"km/h", 1.0 / 3.6}, {"kph", 1.0 / 3.6}, {"m/s", 1.0}, {"mph", 0.44704}}; break;
     case Role::kLateralAcceleration:
-    case Role::kLongitudinalAcceleration:
-      if (unit == "m/s^2" || unit == "m/s2") return 1.0;
-      if (unit == "g") return 9.81;
-      break;
-    case Role::kYawRate:
-      if (unit == "deg/s") return kDegToRad;
-      if (unit == "rad/s") return 1.0;
-      break;
-    default:
-      return 1.0;
+    case Role::kLongitudinalAcceleration: units = {{"m/s^2", 1.0}, {"m/s2", 1.0}, {"g", 9.81}}; break;
+    case Role::kYawRate: units = {{"deg/s", kDegToRad}, {"rad/s", 1.0}}; break;
+    default: return 1.0;
   }
-  throw ConfigError("unknown unit '" + unit + "' for " + RoleKey(role));
+  std::vector<std::string> names;
+  for (const Unit& u : units) {
+    if (unit == u.name) return u.to_si;
+    names.emplace_back(u.name);
+  }
+  throw ConfigError("unknown unit '" + unit + "' for " + RoleKey(role) + AcceptedValuesHint(unit, names));
 }
 
 namespace {

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "ndsid/common/closest_match.h"
+
 namespace ndsid::config {
 
 YamlReader::YamlReader(const YAML::Node& node, std::string file, std::string path)
@@ -14,10 +16,14 @@ YamlReader::YamlReader(const YAML::Node& node, std::string file, std::string pat
 
 std::string YamlReader::KeyPath(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
 
-bool YamlReader::Has(const std::string& key) const { return node_ && node_.IsMap() && node_[key]; }
+bool YamlReader::Has(const std::string& key) const {
+  asked_.insert(key);
+  return node_ && node_.IsMap() && node_[key];
+}
 
 std::optional<YAML::Node> YamlReader::Get(const std::string& key) const {
   used_.insert(key);
+  asked_.insert(key);
   if (!Has(key)) return std::nullopt;
   return node_[key];
 }
@@ -119,7 +125,8 @@ void YamlReader::Finish() const {
     const std::string key = kv.first.as<std::string>();
     if (!used_.count(key)) {
       throw ConfigError(FormatLocation(file_, kv.first.Mark().line + 1, kv.first.Mark().column + 1,
-                                       KeyPath(key) + ": unknown key"));
+                                       KeyPath(key) + ": unknown key" +
+                                           AcceptedValuesHint(key, {asked_.begin(), asked_.end()})));
     }
   }
 }

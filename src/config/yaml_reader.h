@@ -50,6 +50,7 @@ class YamlReader {
   std::string file_;
   std::string path_;
   mutable std::set<std::string> used_;
+  mutable std::set<std::string> asked_;  // every key this reader knows (read or tested): the accepted ones
 };
 
 }  // namespace ndsid::config

@@ -319,9 +319,11 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
 void PrintComparison(const Comparison& c) {
   for (size_t m = 0; m < c.models.size(); ++m) {
     const auto& f = c.models[m].fit;
+    char held_out[32] = "n/a";  // rounded like the other figures (it used to be cut to 6 characters)
+    if (c.validation[m].n) std::snprintf(held_out, sizeof held_out, "%.4f", c.validation[m].rmse);
     std::printf("%-8s %-40s EG = %.3f ± %.3f deg/g   RMSE train %.4f, held-out %s m/s^2   fit %.1f %% / %.1f %%\n",
                 c.models[m].label.c_str(), f.model.c_str(), f.eg_deg_per_g, f.eg_se_deg_per_g, c.train[m].rmse,
-                c.validation[m].n ? std::to_string(c.validation[m].rmse).substr(0, 6).c_str() : "n/a",
+                held_out,
                 c.train[m].nrmse_fit_pct, c.validation[m].nrmse_fit_pct);
     for (const auto& p : f.effect_params) {
       std::printf("         %s = %.5g ± %.2g %s\n", p.name.c_str(), p.value, p.se, p.unit.c_str());

@@ -46,6 +46,17 @@ TEST(Config, RejectsUnknownKeyWithPathAndLine) {
   const std::string e = ErrorOf(std::string(kMinimal) + "gate: {min_sped_mps: 3}\n");
   EXPECT_NE(e.find("car.yaml:8"), std::string::npos) << e;
   EXPECT_NE(e.find("gate.min_sped_mps: unknown key"), std::string::npos) << e;
+  // ... and names the closest accepted key and lists them all.
+  EXPECT_NE(e.find("did you mean 'min_speed_mps'?"), std::string::npos) << e;
+  EXPECT_NE(e.find("accepted: "), std::string::npos) << e;
+  EXPECT_NE(e.find("standstill_speed_mps"), std::string::npos) << e;
+}
+
+TEST(Config, UnknownUnitNamesTheClosestAndTheAcceptedUnits) {
+  std::string y = kMinimal;
+  y.replace(y.find("unit: km/h"), 10, "unit: km/hr");
+  const std::string e = ErrorOf(y);
+  EXPECT_NE(e.find("did you mean 'km/h'? (accepted: km/h, kph, m/s, mph)"), std::string::npos) << e;
 }
 
 TEST(Config, RejectsWrongTypeWithPathAndLine) {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -172,6 +173,19 @@ TEST(Compare, ResidualIsMeasuredMinusModelledAndReportedRmseMatchesCsv) {
     // ... and what the identifier itself computed (the same chunks and burn-in).
     EXPECT_NEAR(std::sqrt(see[0] / n[0]), jm["fit_rmse_train_mps2"].get<double>(), 1e-4) << m;
     EXPECT_NEAR(std::sqrt(see[1] / n[1]), jm["fit_rmse_validation_mps2"].get<double>(), 1e-4) << m;
+  }
+}
+
+// The console prints every RMSE rounded to 4 decimals, as summary.json holds it (the held-out
+// figure used to be cut to 6 characters: 0.094596 -> "0.0945").
+TEST(Compare, ConsoleRmseIsTheJsonValueRounded) {
+  const auto j = ReadJson(kOut / "compare_out" / "summary.json");
+  const std::string console = ReadWholeFile((kOut / "compare_out.txt").string());
+  for (const auto& jm : j["models"]) {
+    char expect[96];
+    std::snprintf(expect, sizeof expect, "RMSE train %.4f, held-out %.4f m/s^2", jm["train"]["rmse_mps2"].get<double>(),
+                  jm["validation"]["rmse_mps2"].get<double>());
+    EXPECT_NE(console.find(expect), std::string::npos) << "console lacks '" << expect << "':\n" << console;
   }
 }
 

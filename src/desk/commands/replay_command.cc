@@ -1,5 +1,6 @@
 // `ndsid replay`: recorded drives through the estimator. Without arguments, every bundled set
 // in replay/ (each folder with drive.log[.gz], compared with its truth.yaml when present).
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
 
@@ -23,8 +24,33 @@ struct ReplayArgs {
   bool use_config_logs = false;  // --config given without --log / --replay-dir: its source.logs
 };
 
+// A report folder name for a set of logs given with --log: the file name without its log and
+// compression extensions, prefixed by its folder, so two drive.log.gz from different folders
+// get different reports ("clean-drive", "steer_offset-drive"); "+N" counts further logs.
+std::string LogSetName(const std::vector<std::string>& logs) {
+  fs::path first = fs::absolute(logs.front()).lexically_normal();
+  std::string stem = first.filename().string();
+  for (const char* ext : {".gz", ".log", ".asc", ".blf", ".mf4", ".MF4", ".txt"}) {
+    const std::string e = ext;
+    if (stem.size() > e.size() && stem.compare(stem.size() - e.size(), e.size(), e) == 0) stem.resize(stem.size() - e.size());
+  }
+  const std::string parent = first.parent_path().filename().string();
+  std::string name = parent.empty() ? stem : parent + "-" + stem;
+  if (logs.size() > 1) name += "+" + std::to_string(logs.size() - 1);
+  return name;
+}
+
 int Run(const ReplayArgs& a) {
   const config::Config cfg = config::LoadConfig(a.config);
+  if (a.use_config_logs && cfg.source.logs.empty()) {
+    // A live (socketcan) configuration has nothing to replay: say so instead of silently
+    // replaying the bundled simulated sets.
+    std::fprintf(stderr,
+                 "ndsid replay: %s has source.type socketcan and no source.logs: give the logs to replay with --log "
+                 "FILE... (or --replay-dir DIR)\n",
+                 a.config.c_str());
+    return kExitConfig;
+  }
   const dbc::Database db = dbc::ParseDbcFile(cfg.dbc);
   const std::string report_root = a.report_dir.empty() ? cfg.report_dir : a.report_dir;
 
@@ -35,7 +61,7 @@ int Run(const ReplayArgs& a) {
   };
   std::vector<Set> sets;
   if (!a.logs.empty()) {
-    sets.push_back({fs::path(a.logs.front()).stem().string(), a.logs, ""});
+    sets.push_back({LogSetName(a.logs), a.logs, ""});
   } else if (a.use_config_logs && !cfg.source.logs.empty()) {
     sets.push_back({fs::path(a.config).stem().string(), cfg.source.logs, ""});
   } else if (fs::exists(a.replay_dir)) {

@@ -20,7 +20,7 @@ namespace {
 
 struct SimulateOptions {
   std::string config_path;
-  std::string dbc_path = "dbc/ndsid_example.dbc";
+  std::string dbc_path = std::string(NDSID_SOURCE_DIR) + "/dbc/ndsid_example.dbc";  // not the working directory's
   std::string out_dir;
   std::vector<std::string> effects;
   uint64_t seed = 0;
