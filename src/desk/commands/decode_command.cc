@@ -1,12 +1,15 @@
 // `ndsid decode`: a CAN log (any format of can::OpenFrameLog) decoded with a DBC, as CSV on stdout (like `cantools decode`,
 // one row per signal value). Malformed lines, unknown ids and short frames are counted and
 // summarised on stderr at the end.
+#include <charconv>
 #include <cinttypes>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <memory>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "command_registry.h"
@@ -14,6 +17,7 @@
 #include "ndsid/common/error.h"
 #include "ndsid/dbc/dbc_parser.h"
 #include "ndsid/dbc/decoder.h"
+#include "number_format.h"
 
 namespace ndsid::desk {
 namespace {
@@ -51,11 +55,51 @@ std::vector<dbc::SignalSelector> Select(const dbc::Database& db, const DecodeArg
   return selection;
 }
 
-// "sec.usec" from nanoseconds, exact (no floating point), as candump writes it.
-void PrintTime(int64_t ns, char* buf, size_t size) {
+// Buffered CSV output: rows are formatted in place (std::to_chars, no printf parsing, no locale)
+// and written in 1 MiB blocks.
+class CsvOut {
+ public:
+  explicit CsvOut(std::FILE* f) : file_(f), buffer_(1 << 20) {}
+  ~CsvOut() { Flush(); }
+  // Room for at least `n` more bytes.
+  char* Reserve(size_t n) {
+    if (used_ + n > buffer_.size()) {
+      Flush();
+      if (n > buffer_.size()) buffer_.resize(n);
+    }
+    return buffer_.data() + used_;
+  }
+  void Commit(char* end) { used_ = static_cast<size_t>(end - buffer_.data()); }
+  void Append(std::string_view s) {
+    char* p = Reserve(s.size());
+    std::memcpy(p, s.data(), s.size());
+    Commit(p + s.size());
+  }
+  void Flush() {
+    if (used_ && std::fwrite(buffer_.data(), 1, used_, file_) != used_) write_failed_ = true;
+    used_ = 0;
+  }
+  bool write_failed() const { return write_failed_ || std::ferror(file_); }
+
+ private:
+  std::FILE* file_;
+  std::vector<char> buffer_;
+  size_t used_ = 0;
+  bool write_failed_ = false;
+};
+
+// "sec.usec," from nanoseconds, exact (no floating point), as candump writes it.
+char* WriteTime(int64_t ns, char* p) {
   const int64_t us = (ns >= 0 ? ns + 500 : ns - 500) / 1000;
-  const int64_t abs_us = us < 0 ? -us : us;
-  std::snprintf(buf, size, "%s%" PRId64 ".%06" PRId64, us < 0 ? "-" : "", abs_us / 1000000, abs_us % 1000000);
+  uint64_t abs_us = us < 0 ? static_cast<uint64_t>(-(us + 1)) + 1 : static_cast<uint64_t>(us);
+  if (us < 0) *p++ = '-';
+  p = std::to_chars(p, p + 24, abs_us / 1000000).ptr;
+  *p++ = '.';
+  uint64_t frac = abs_us % 1000000;
+  for (int i = 5; i >= 0; --i) p[i] = static_cast<char>('0' + frac % 10), frac /= 10;
+  p += 6;
+  *p++ = ',';
+  return p;
 }
 
 int Run(const DecodeArgs& a) {
@@ -70,8 +114,12 @@ int Run(const DecodeArgs& a) {
   } n;
   std::vector<can::CanFrame> frames(512);
   std::vector<dbc::DecodedValue> out(decoder.max_signals_per_message());
-  std::printf("t,message,signal,value\n");
-  char time_text[32];
+  // "message,signal," per selected signal, formatted once.
+  std::vector<std::string> names;
+  for (const auto& sel : decoder.signals()) names.push_back(sel.message->name + "," + sel.signal->name + ",");
+  CsvOut csv(stdout);
+  csv.Append("t,message,signal,value\n");
+  char time_text[48];
   for (;;) {
     const can::ReadResult r = reader.Read(frames, 0);
     for (size_t i = 0; i < r.count; ++i) {
@@ -89,16 +137,28 @@ int Run(const DecodeArgs& a) {
         case dbc::DecodeVerdict::kNotData: ++n.not_data; break;
       }
       if (count == 0) continue;
-      PrintTime(f.timestamp_ns, time_text, sizeof time_text);
+      const size_t time_len = static_cast<size_t>(WriteTime(f.timestamp_ns, time_text) - time_text);
       for (size_t k = 0; k < count; ++k) {
-        const auto& sel = decoder.signals()[static_cast<size_t>(out[k].signal_index)];
-        std::printf("%s,%s,%s,%.10g\n", time_text, sel.message->name.c_str(), sel.signal->name.c_str(), out[k].value);
+        const std::string& name = names[static_cast<size_t>(out[k].signal_index)];
+        char* p = csv.Reserve(time_len + name.size() + 32);
+        std::memcpy(p, time_text, time_len);
+        p += time_len;
+        std::memcpy(p, name.data(), name.size());
+        p += name.size();
+        p = FormatG10(p, out[k].value);  // exactly printf's %.10g, from the shortest digits
+        *p++ = '\n';
+        csv.Commit(p);
         ++n.values;
       }
     }
     if (r.state == can::SourceState::kEnd) break;
   }
+  csv.Flush();
   std::fflush(stdout);
+  if (csv.write_failed()) {
+    std::cerr << "ndsid decode: writing the CSV failed (disk full or closed pipe)\n";
+    return kExitIo;
+  }
 
   const auto& c = reader.counters();
   std::cerr << "ndsid decode: " << n.frames << " frames, " << n.decoded << " decoded, " << n.values << " values; "
