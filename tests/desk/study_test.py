@@ -21,7 +21,8 @@ for line in open(truth_file):
     if line.strip().startswith("self_steer_gradient_deg_per_g:"):
         truth = float(line.split(":")[1].split("#")[0])
 with tempfile.TemporaryDirectory() as out:
-    run = subprocess.run([ndsid, "study", "--log", log, "--hours", "0.12", "--truth", truth_file,
+    run = subprocess.run([ndsid, "study", "--log", log, "--hours", "0.06,0.12",  # a comma list, as the README writes it
+                          "--truth", truth_file,
                           "--validation-fraction", "0.25", "--out", out], capture_output=True, text=True)
     print(run.stdout)
     if run.returncode != 0:
@@ -34,8 +35,9 @@ singles = [r for r in rows if r["set"] == "SD" and r["valid"] == "1"]
 alls = [r for r in rows if r["set"] == "AD"]
 if len(singles) != 3:  # 4 drives, one held out for validation
     failures.append(f"expected 3 single-drive sets, got {len(singles)}")
-if "H0.12" not in kinds:
-    failures.append("no 0.12 h sets")
+for size in ("H0.06", "H0.12"):
+    if size not in kinds:
+        failures.append(f"no {size} sets (--hours 0.06,0.12)")
 if len(alls) != 1 or alls[0]["valid"] != "1":
     failures.append("expected one valid all-data set")
 else:

@@ -3,6 +3,7 @@
 // then sets of H gated hours, then all); each set is identified on its own and validated on
 // drives held out from every set. EG's spread per set size shows when more data stop moving it.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -45,6 +46,12 @@ double Median(std::vector<double> v) {
 }
 
 int Run(const StudyArgs& a) {
+  // Arguments first: nothing is replayed for a run that cannot finish.
+  for (double h : a.hours) {
+    if (!(h > 0) || !std::isfinite(h)) throw ConfigError("--hours: set sizes must be positive hours, got " + std::to_string(h));
+  }
+  if (!(a.validation_fraction > 0 && a.validation_fraction < 1)) throw ConfigError("--validation-fraction must be in (0, 1)");
+  if (a.max_single < 0) throw ConfigError("--max-single must be >= 0");
   config::Config cfg = config::LoadConfig(a.config);
   cfg.identification.window_h = 1e9;  // keep every drive: the study splits them itself
   const dbc::Database db = dbc::ParseDbcFile(cfg.dbc);
@@ -164,7 +171,9 @@ void Register(CLI::App& parent, int& exit_code) {
   auto* cmd = parent.add_subcommand("study", "The study's subset analysis: EG spread and validation RMSE per data-set size");
   cmd->add_option("--config", a->config, "Vehicle configuration (YAML)")->capture_default_str();
   cmd->add_option("--log", a->logs, "Logs to study (default: the configuration's source)");
-  cmd->add_option("--hours", a->hours, "Set sizes in gated hours (besides single drives and all)")->capture_default_str();
+  cmd->add_option("--hours", a->hours, "Set sizes in gated hours, comma-separated (besides single drives and all)")
+      ->delimiter(',')
+      ->capture_default_str();
   cmd->add_option("--max-single", a->max_single, "Single drives to identify at most")->capture_default_str();
   cmd->add_option("--validation-fraction", a->validation_fraction, "Share of drives held out for validation")->capture_default_str();
   cmd->add_option("--seed", a->seed, "Seed of the random split")->capture_default_str();
