@@ -20,6 +20,7 @@
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/dbc/dbc_parser.h"
 #include "ndsid/publish/lcm_publisher.h"
+#include "ndsid/publish/rate_limiter.h"
 #include "state_store.h"
 
 namespace ndsid::service {
@@ -103,6 +104,7 @@ struct Daemon::Impl {
   std::unique_ptr<can::FrameSource> source;
   bool source_is_log = false;
   std::unique_ptr<ModelMonitor> monitor;
+  publish::WallRateLimiter monitor_limit{0};
   std::atomic<bool> stop{false}, reload{false};
 
   struct Job {
@@ -137,8 +139,12 @@ struct Daemon::Impl {
     monitor = std::make_unique<ModelMonitor>(c.vehicle.wheelbase_m, c.sync.rate_hz, c.lcm.monitor_rate_hz);
     const auto& last = pipe().last_estimate();
     monitor->SetParams(last && last->fit.valid ? std::optional(last->fit.AsParams()) : pipe().WarmStartBase());
+    // Decimated in data time by the monitor, then limited in wall-clock time: a fast replay
+    // would otherwise flood the channel (thousands of messages per second, lost by receivers).
+    monitor_limit = publish::WallRateLimiter(c.lcm.monitor_rate_hz);
     pipe().SetSampleObserver([this](const gate::GatedSample& g) {
-      if (auto m = monitor->Observe(g)) sink->PublishMonitor(*m);
+      auto m = monitor->Observe(g);
+      if (m && monitor_limit.Allow(MonoNs())) sink->PublishMonitor(*m);
     });
   }
 

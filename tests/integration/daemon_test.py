@@ -180,7 +180,8 @@ def PublishesEstimatesOverUdpmMatchingFinalEg():
     try:
         # At 40x recorded speed, so identifications run while data arrive and the monitor
         # stream carries the model (as fast as possible, the replay ends before the first fit).
-        cfg = case.config(period_s=30, monitor_rate_hz=10)
+        # (monitor_rate_hz is a wall-clock limit too: 10 s of wall time carry at most 500.)
+        cfg = case.config(period_s=30, monitor_rate_hz=50)
         sub = Subscriber(lcm, ndsid, UDPM, case.prefix)
         p = case.run(cfg, "--speed", "40")
         sub.close()
@@ -212,6 +213,30 @@ def PublishesEstimatesOverUdpmMatchingFinalEg():
         rms = (sum((m.lat_accel_mps2 - m.lat_accel_model_mps2) ** 2 for m in valid) / len(valid)) ** 0.5
         print(f"monitor: {len(valid)} samples, a_y measured - modelled RMS {rms:.3f} m/s^2")
         check(rms < 0.15, "the model simulated alongside the data does not follow it")
+    finally:
+        case.cleanup()
+
+
+def MonitorIsRateLimitedInWallClockTime():
+    """A fast replay produces data minutes per wall second: the monitor channel must still carry
+    at most monitor_rate_hz messages per wall-clock second (it used to carry thousands)."""
+    lcm, ndsid = lcm_modules()
+    case = Case("monitor_rate", drives=2, drive_s=200)
+    try:
+        rate = 5
+        log = os.path.join(case.dir, "capture.lcmlog")
+        cfg = case.config(url=f"file://{log}?mode=w", period_s=30, monitor_rate_hz=rate)
+        t0 = time.time()
+        p = case.run(cfg, "--speed", "40")
+        wall = time.time() - t0
+        check(p.returncode == 0, p.stderr)
+        stamps = [ev.timestamp for ev in lcm.EventLog(log, "r") if ev.channel == case.prefix + "MONITOR"]
+        # The data carry 400 s of driving at 5 Hz in data time (~1 500 decimated samples) in ~10 s.
+        busiest = max((sum(1 for u in stamps if t <= u < t + 1_000_000) for t in stamps), default=0)
+        print(f"{len(stamps)} monitor messages in {wall:.1f} s wall, busiest wall second {busiest} (limit {rate})")
+        check(stamps, "no monitor message")
+        check(busiest <= rate + 1, f"{busiest} monitor messages in one wall-clock second, limit {rate}")
+        check(len(stamps) >= rate * (wall - 3) * 0.5, f"only {len(stamps)} monitor messages in {wall:.1f} s")
     finally:
         case.cleanup()
 
