@@ -99,6 +99,7 @@ class AscReader final : public FrameLogBase {
   const char* Bytes(const Tokens& tok, size_t first, int count, CanFrame& frame) const noexcept;
 
   static constexpr const char* kSkip = "";
+  uint64_t RawOffset() const noexcept override { return input_.raw_offset(); }
 
   LineInput input_;
   Tokens tok_;

@@ -71,6 +71,7 @@ class BlfReader final : public FrameLogBase {
     if (ReadExact(rest.data(), rest.size()) != rest.size()) throw Error("BLF log " + path + ": truncated header");
   }
   bool Next(CanFrame& frame) noexcept override;
+  uint64_t RawOffset() const noexcept override { return offset_; }
   size_t ReadExact(uint8_t* out, size_t n) noexcept;
   // Reads the next top-level object and appends its content to inner_; false at the end.
   bool LoadMore() noexcept;

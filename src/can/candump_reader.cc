@@ -4,7 +4,9 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstring>
+#include <filesystem>
 
 #include "can_logger.h"
 #include "candump_line.h"
@@ -20,6 +22,7 @@ constexpr unsigned kZlibBufferBytes = 1 << 17;
 struct CandumpReader::Impl {
   std::string path;
   gzFile file = nullptr;
+  uint64_t file_size = 0;  // at open, for fraction_read; 0 when unknown
   std::shared_ptr<spdlog::logger> log;
   std::vector<char> buffer = std::vector<char>(kBufferBytes);
   size_t begin = 0;  // unread bytes are buffer[begin, end)
@@ -139,6 +142,9 @@ CandumpReader::CandumpReader(const std::string& path) : impl_(std::make_unique<I
     throw Error("candump log " + path + ": cannot open: " + std::strerror(errno));
   }
   gzbuffer(impl_->file, kZlibBufferBytes);
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  impl_->file_size = ec ? 0 : static_cast<uint64_t>(size);
 }
 
 CandumpReader::~CandumpReader() {
@@ -180,6 +186,12 @@ const std::vector<MalformedLine>& CandumpReader::first_malformed() const noexcep
 }
 uint64_t CandumpReader::lines() const noexcept { return impl_->line_number; }
 const std::string& CandumpReader::io_error() const noexcept { return impl_->io_error; }
+
+double CandumpReader::fraction_read() const noexcept {
+  const z_off_t at = impl_->file ? gzoffset(impl_->file) : -1;
+  if (impl_->file_size == 0 || at < 0) return -1.0;
+  return std::min(1.0, static_cast<double>(at) / static_cast<double>(impl_->file_size));
+}
 
 std::string CandumpReader::Locate(const MalformedRecord& record) const {
   return FormatLocation(impl_->path, static_cast<int>(record.position), 0, record.reason);

@@ -2,13 +2,25 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <filesystem>
+
 #include "can_logger.h"
 #include "ndsid/common/error.h"
 
 namespace ndsid::can::detail {
 
 FrameLogBase::FrameLogBase(std::string path, LogFormat format, bool binary)
-    : path_(std::move(path)), format_(format), binary_(binary), log_(CanLogger()) {}
+    : path_(std::move(path)), format_(format), binary_(binary), log_(CanLogger()) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path_, ec);
+  file_size_ = ec ? 0 : static_cast<uint64_t>(size);
+}
+
+double FrameLogBase::fraction_read() const noexcept {
+  if (file_size_ == 0) return -1.0;
+  return std::min(1.0, static_cast<double>(RawOffset()) / static_cast<double>(file_size_));
+}
 
 FrameLogBase::~FrameLogBase() = default;
 

@@ -42,8 +42,11 @@ class FrameLogBase : public FrameLog {
   uint64_t skipped_records() const noexcept final { return skipped_; }
   std::string Locate(const MalformedRecord& record) const final;
   std::string Describe() const override;
+  double fraction_read() const noexcept final;
 
  protected:
+  // Bytes of the file consumed so far (for fraction_read).
+  virtual uint64_t RawOffset() const noexcept = 0;
   // The next frame (bus set by BusForChannel), or false at the end or after Stop().
   virtual bool Next(CanFrame& frame) noexcept = 0;
 
@@ -72,6 +75,7 @@ class FrameLogBase : public FrameLog {
   uint64_t skipped_ = 0;
   bool stopped_ = false;
   int64_t last_timestamp_ns_ = INT64_MIN;
+  uint64_t file_size_ = 0;  // at open; 0 when unknown
 };
 
 }  // namespace ndsid::can::detail

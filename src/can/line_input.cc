@@ -21,6 +21,11 @@ LineInput::~LineInput() {
 
 bool LineInput::compressed() const noexcept { return file_ != nullptr && gzdirect(file_) == 0; }
 
+uint64_t LineInput::raw_offset() const noexcept {
+  const z_off_t at = file_ ? gzoffset(file_) : -1;
+  return at > 0 ? static_cast<uint64_t>(at) : 0;
+}
+
 bool LineInput::Fill() noexcept {
   if (eof_) return false;
   if (begin_ > 0) {

@@ -23,6 +23,8 @@ class LineInput {
   // Empty unless reading stopped on a read or decompression error (truncated gzip, ...).
   const std::string& error() const noexcept { return error_; }
   bool compressed() const noexcept;
+  // Bytes of the file consumed (compressed bytes for gzip).
+  uint64_t raw_offset() const noexcept;
 
   static constexpr size_t kMaxLineBytes = 4096;
 

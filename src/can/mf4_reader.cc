@@ -128,6 +128,7 @@ class Mf4Reader final : public FrameLogBase {
 
  private:
   bool Next(CanFrame& frame) noexcept override;
+  uint64_t RawOffset() const noexcept override { return file_.furthest(); }
   void AddDataGroup(const Mf4Block& dg);
   bool DescribeGroup(const Mf4Block& cg, Group& g);
   void CollectChannels(uint64_t cn_at, Group& g, bool& is_can, int depth);

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <chrono>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -11,6 +13,7 @@
 
 #include "ndsid/can/frame_log.h"
 #include "fit_json.h"
+#include "progress.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/common/error.h"
 
@@ -19,18 +22,43 @@ namespace fs = std::filesystem;
 
 ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& config, const ReplayOptions& options) {
   ReplayOutcome out;
+  const auto t_start = std::chrono::steady_clock::now();
   const auto& logs = options.logs.empty() ? config.source.logs : options.logs;
   std::vector<can::CanFrame> frames(256);
   for (const std::string& path : logs) can::DetectLogFormat(path);  // every file readable before any work
+  // Progress: the logs weighted by their size on disk.
+  std::vector<double> sizes;
+  double total_size = 0;
   for (const std::string& path : logs) {
+    std::error_code ec;
+    sizes.push_back(static_cast<double>(fs::file_size(path, ec)));
+    if (ec) sizes.back() = 0;
+    total_size += sizes.back();
+  }
+  Progress progress("replay");
+  double size_done = 0, data_s_done = 0;
+  uint64_t frames_done = 0;
+  for (size_t li = 0; li < logs.size(); ++li) {
+    const std::string& path = logs[li];
     const std::unique_ptr<can::FrameLog> log = can::OpenFrameLog(path);
     can::FrameLog& reader = *log;
     spdlog::info("replaying {}", reader.Describe());
+    int64_t first_ns = INT64_MIN, last_ns = INT64_MIN;
     for (;;) {
       const can::ReadResult r = reader.Read(frames, 0);
       pipeline.ProcessFrames(std::span<const can::CanFrame>(frames.data(), r.count), reader.bus_names());
+      if (progress.enabled() && r.count > 0) {
+        if (first_ns == INT64_MIN) first_ns = frames[0].timestamp_ns;
+        last_ns = frames[r.count - 1].timestamp_ns;
+        const double f = reader.fraction_read();
+        const double done = total_size > 0 && f >= 0 ? (size_done + f * sizes[li]) / total_size : -1.0;
+        progress.Update(done, frames_done + reader.counters().frames, data_s_done + 1e-9 * static_cast<double>(last_ns - first_ns));
+      }
       if (options.identify_periodically && pipeline.IdentificationDue()) {
+        const auto t_fit = std::chrono::steady_clock::now();
         const pipeline::Estimate& e = pipeline.IdentifyNow();
+        out.periodic_fit_wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_fit).count();
+        progress.Done();  // the log line on a line of its own
         spdlog::info("{:.2f} gated h: EG {:.3f} ± {:.3f} deg/g, {}", e.gated_hours, e.fit.eg_deg_per_g,
                      e.fit.eg_se_deg_per_g, adequacy::StateName(e.adequacy.state));
       }
@@ -42,14 +70,19 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
       throw Error(path + ": reading stopped after " + std::to_string(c.frames) + " frames: " + reader.io_error());
     }
     out.source.frames += c.frames;
+    size_done += sizes[li];
+    frames_done += c.frames;
+    if (first_ns != INT64_MIN) data_s_done += 1e-9 * static_cast<double>(last_ns - first_ns);
     out.source.malformed += c.malformed;
     out.source.error_frames += c.error_frames;
     out.source.time_backwards += c.time_backwards;
   }
+  progress.Done();
   pipeline.Finish();
   if (!pipeline.accumulator().window().empty()) pipeline.IdentifyNow();
   out.history = pipeline.history();
   if (pipeline.last_estimate()) out.final_estimate = *pipeline.last_estimate();
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return out;
 }
 
@@ -207,12 +240,11 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
                 e.fit.params[model::kStiffFront].value, e.fit.params[model::kStiffRear].value,
                 e.fit.params[model::kYawInertia].value, e.fit.params[model::kMass].value,
                 e.fit.params[model::kMass].fixed ? "fixed" : "identified");
-    std::printf("  RMSE train %.4f m/s^2, validation %s\n", e.fit.rmse_train_mps2,
-                e.fit.rmse_validation_mps2 >= 0 ? (std::to_string(e.fit.rmse_validation_mps2).substr(0, 6) + " m/s^2").c_str()
-                                                 : "n/a (no held-out drive)");
-    std::printf("  steady-state check: EG = %s\n",
-                e.steady_state.valid ? (std::to_string(model::EgToDegPerG(e.steady_state.eg_rad_per_mps2)).substr(0, 6) + " deg/g").c_str()
-                                     : e.steady_state.reason.c_str());
+    char validation[48] = "n/a (no held-out drive)", steady[48];  // rounded, never cut
+    if (e.fit.rmse_validation_mps2 >= 0) std::snprintf(validation, sizeof validation, "%.4f m/s^2", e.fit.rmse_validation_mps2);
+    std::snprintf(steady, sizeof steady, "%.4f deg/g", model::EgToDegPerG(e.steady_state.eg_rad_per_mps2));
+    std::printf("  RMSE train %.4f m/s^2, validation %s\n", e.fit.rmse_train_mps2, validation);
+    std::printf("  steady-state check: EG = %s\n", e.steady_state.valid ? steady : e.steady_state.reason.c_str());
     std::printf("  adequacy: %s — %s\n", adequacy::StateName(e.adequacy.state), e.adequacy.explanation.c_str());
   } else {
     std::printf("  no valid estimate: %s\n",
@@ -228,6 +260,11 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
   std::printf("  standstill a_y (road cross-slope): %.3f m/s^2 over %llu samples\n", pipeline.gate().standstill().mean_mps2(),
               static_cast<unsigned long long>(pipeline.gate().standstill().samples));
   std::printf("  report: %s\n", report_path.c_str());
+  if (outcome.periodic_fit_wall_s > 5 && outcome.periodic_fit_wall_s > 0.5 * outcome.wall_s) {
+    std::printf("  note: %.0f of the %.0f s went to re-identifying every identification.period_s, as the daemon does (the "
+                "EG history above); --final-only identifies once at the end\n",
+                outcome.periodic_fit_wall_s, outcome.wall_s);
+  }
 }
 
 }  // namespace ndsid::desk

@@ -35,6 +35,7 @@ class CandumpReader final : public FrameLog {
   // Empty unless reading stopped early on an I/O or decompression error (e.g. a truncated
   // gzip file); the reader then reports kEnd.
   const std::string& io_error() const noexcept override;
+  double fraction_read() const noexcept override;
   uint64_t skipped_records() const noexcept override { return 0; }
   std::string Locate(const MalformedRecord& record) const override;
 

@@ -43,6 +43,9 @@ class FrameLog : public FrameSource {
   virtual uint64_t skipped_records() const noexcept = 0;
   // "file:12: reason" for text formats, "file: byte 4096: reason" for binary ones.
   virtual std::string Locate(const MalformedRecord& record) const = 0;
+  // The share of the file's bytes read so far (0..1; of the compressed bytes for gzip), for
+  // progress displays; -1 when unknown.
+  virtual double fraction_read() const noexcept { return -1.0; }
 
   static constexpr size_t kKeptMalformed = 10;
 };
