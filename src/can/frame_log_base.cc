@@ -18,7 +18,7 @@ FrameLogBase::FrameLogBase(std::string path, LogFormat format, bool binary)
 }
 
 double FrameLogBase::fraction_read() const noexcept {
-  if (file_size_ == 0) return -1.0;
+  if (file_size_ == 0 || RawOffset() == kUnknownOffset) return -1.0;
   return std::min(1.0, static_cast<double>(RawOffset()) / static_cast<double>(file_size_));
 }
 

@@ -45,8 +45,9 @@ class FrameLogBase : public FrameLog {
   double fraction_read() const noexcept final;
 
  protected:
-  // Bytes of the file consumed so far (for fraction_read).
+  // Bytes of the file consumed so far (for fraction_read), or kUnknownOffset.
   virtual uint64_t RawOffset() const noexcept = 0;
+  static constexpr uint64_t kUnknownOffset = UINT64_MAX;
   // The next frame (bus set by BusForChannel), or false at the end or after Stop().
   virtual bool Next(CanFrame& frame) noexcept = 0;
 

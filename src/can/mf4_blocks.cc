@@ -42,7 +42,6 @@ bool Mf4File::ReadAt(uint64_t offset, void* out, size_t n) const noexcept {
     offset += static_cast<uint64_t>(r);
     n -= static_cast<size_t>(r);
   }
-  if (offset > furthest_) furthest_ = offset;
   return true;
 }
 

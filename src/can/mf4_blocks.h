@@ -19,13 +19,10 @@ class Mf4File {
   // Exactly n bytes at offset, or false (beyond the end / read error).
   bool ReadAt(uint64_t offset, void* out, size_t n) const noexcept;
   uint64_t size() const noexcept { return size_; }
-  // The end of the furthest range read so far (progress).
-  uint64_t furthest() const noexcept { return furthest_; }
 
  private:
   int fd_ = -1;
   uint64_t size_ = 0;
-  mutable uint64_t furthest_ = 0;
 };
 
 struct Mf4Block {

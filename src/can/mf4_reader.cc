@@ -128,7 +128,9 @@ class Mf4Reader final : public FrameLogBase {
 
  private:
   bool Next(CanFrame& frame) noexcept override;
-  uint64_t RawOffset() const noexcept override { return file_.furthest(); }
+  // Unknown: the data blocks of several groups are read interleaved, and the metadata often
+  // sits at the end of the file, so no single offset measures progress.
+  uint64_t RawOffset() const noexcept override { return kUnknownOffset; }
   void AddDataGroup(const Mf4Block& dg);
   bool DescribeGroup(const Mf4Block& cg, Group& g);
   void CollectChannels(uint64_t cn_at, Group& g, bool& is_can, int depth);

@@ -110,6 +110,9 @@ def dump(tool, path):
         if line.startswith("# format="):
             summary = line
             continue
+        if line.startswith("# fraction_read"):  # progress: rises to the whole file
+            summary += " " + line[2:]
+            continue
         if line.startswith("#"):
             continue
         ns, bus, cid, flags, length, data = line.split()
@@ -194,6 +197,10 @@ def main():
             print(f"{name}: {summary}")
             if rc != 0 or "malformed=0" not in summary:
                 failures.append(f"{name}: exit {rc}, {summary} {err.strip()}")
+            # progress: rises to the whole file; unknown (-1) for MF4 (interleaved data blocks)
+            want_last = "last=-1.000000" if name.startswith("mf4") else "last=1.000000"
+            if "monotonic=1" not in summary or want_last not in summary:
+                failures.append(f"{name}: fraction_read must end at {want_last}: {summary}")
             compare(name, frames, got, tolerance[name], failures)
             # python-can's reader of the same file: the same times (its float seconds: 0.5 us)
             cls, kw = readers[name]

@@ -44,7 +44,7 @@ class FrameLog : public FrameSource {
   // "file:12: reason" for text formats, "file: byte 4096: reason" for binary ones.
   virtual std::string Locate(const MalformedRecord& record) const = 0;
   // The share of the file's bytes read so far (0..1; of the compressed bytes for gzip), for
-  // progress displays; -1 when unknown.
+  // progress displays; -1 when unknown (MF4, whose data blocks are read interleaved).
   virtual double fraction_read() const noexcept { return -1.0; }
 
   static constexpr size_t kKeptMalformed = 10;
