@@ -236,7 +236,8 @@ def MonitorIsRateLimitedInWallClockTime():
         print(f"{len(stamps)} monitor messages in {wall:.1f} s wall, busiest wall second {busiest} (limit {rate})")
         check(stamps, "no monitor message")
         check(busiest <= rate + 1, f"{busiest} monitor messages in one wall-clock second, limit {rate}")
-        check(len(stamps) >= rate * (wall - 3) * 0.5, f"only {len(stamps)} monitor messages in {wall:.1f} s")
+        # not starved either (a slow machine or a sanitizer build produces fewer samples per second)
+        check(len(stamps) >= 10, f"only {len(stamps)} monitor messages in {wall:.1f} s")
     finally:
         case.cleanup()
 
