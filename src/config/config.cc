@@ -295,6 +295,24 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
     c.adequacy.kl_threshold = Ranged(a, "kl_threshold", c.adequacy.kl_threshold, 1e-9, 100);
     a.Finish();
   }
+  if (top.Has("plausibility")) {
+    const YamlReader p = top.Child("plausibility");
+    PlausibilityConfig& q = c.plausibility;
+    q.kinematic_gain_min = Ranged(p, "kinematic_gain_min", q.kinematic_gain_min, 0.01, 1);
+    q.kinematic_gain_max = Ranged(p, "kinematic_gain_max", q.kinematic_gain_max, 1, 100);
+    q.kinematic_correlation_min = Ranged(p, "kinematic_correlation_min", q.kinematic_correlation_min, 0, 1);
+    q.steer_yaw_correlation_min = Ranged(p, "steer_yaw_correlation_min", q.steer_yaw_correlation_min, 0, 1);
+    q.steer_ratio_min = Ranged(p, "steer_ratio_min", q.steer_ratio_min, 1, 1000);
+    q.steer_ratio_max = Ranged(p, "steer_ratio_max", q.steer_ratio_max, 1, 1000);
+    if (q.steer_ratio_max <= q.steer_ratio_min) p.Fail("steer_ratio_max", "must be above steer_ratio_min");
+    q.eg_min_deg_per_g = Ranged(p, "eg_min_deg_per_g", q.eg_min_deg_per_g, -100, 100);
+    q.eg_max_deg_per_g = Ranged(p, "eg_max_deg_per_g", q.eg_max_deg_per_g, -100, 100);
+    if (q.eg_max_deg_per_g <= q.eg_min_deg_per_g) p.Fail("eg_max_deg_per_g", "must be above eg_min_deg_per_g");
+    q.eg_rel_se_max = Ranged(p, "eg_rel_se_max", q.eg_rel_se_max, 1e-3, 100);
+    q.eg_se_floor_deg_per_g = Ranged(p, "eg_se_floor_deg_per_g", q.eg_se_floor_deg_per_g, 0, 100);
+    q.min_informative_s = Ranged(p, "min_informative_s", q.min_informative_s, 0, 1e6);
+    p.Finish();
+  }
   if (top.Has("lcm")) {
     const YamlReader l = top.Child("lcm");
     c.lcm.url = l.String("url", c.lcm.url);

@@ -81,12 +81,38 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
   pipeline.Finish();
   if (!pipeline.accumulator().window().empty()) pipeline.IdentifyNow();
   out.history = pipeline.history();
-  if (pipeline.last_estimate()) out.final_estimate = *pipeline.last_estimate();
+  // The final fit, valid or not (a replay reports what its data give; the daemon keeps
+  // publishing its last valid estimate beside a not-valid one).
+  if (!out.history.empty()) {
+    out.final_estimate = out.history.back();
+  } else if (pipeline.last_estimate()) {
+    out.final_estimate = *pipeline.last_estimate();
+  }
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return out;
 }
 
 namespace {
+
+nlohmann::json CheckJson(const adequacy::Check& c) {
+  return {{"name", c.name}, {"verdict", adequacy::VerdictName(c.verdict)}, {"value", c.value},
+          {"informative_s", c.informative_s}, {"message", c.message}};
+}
+
+// The checks of the window and of the estimate, and every drive that failed one.
+nlohmann::json PlausibilityJson(const adequacy::PlausibilityReport& p) {
+  nlohmann::json j = {{"passed", p.passed()}, {"reason", p.Reason()}, {"drives_checked", p.drives.size()},
+                      {"drives_failed", p.drives_failed}, {"checks", nlohmann::json::array()},
+                      {"failed_drives", nlohmann::json::array()}};
+  for (const auto& c : p.checks) j["checks"].push_back(CheckJson(c));
+  for (const auto& d : p.drives) {
+    nlohmann::json failed = nlohmann::json::array();
+    for (const auto& c : d.checks)
+      if (c.verdict == adequacy::Verdict::kFailed) failed.push_back(CheckJson(c));
+    if (!failed.empty()) j["failed_drives"].push_back({{"drive", d.drive_id}, {"t0_ns", d.t0_ns}, {"checks", failed}});
+  }
+  return j;
+}
 
 nlohmann::json EstimateJson(const config::Config& config, const pipeline::Estimate& e) {
   nlohmann::json j = FitToJson(e.fit);
@@ -97,6 +123,7 @@ nlohmann::json EstimateJson(const config::Config& config, const pipeline::Estima
                    {"rel_se", e.adequacy.rel_se}, {"kl_growth", e.adequacy.kl_growth},
                    {"hours_under_tolerance", e.adequacy.hours_under_tolerance},
                    {"explanation", e.adequacy.explanation}};
+  j["plausibility"] = PlausibilityJson(e.plausibility);
   j["gated_hours"] = e.gated_hours;
   j["window_hours"] = e.window_hours;
   j["vehicle"] = config.vehicle.name;
@@ -199,9 +226,25 @@ std::string WriteReport(const std::string& dir, const config::Config& config, co
     md += "\nIdentifiability:\n";
     for (const auto& n : e.fit.identifiability.notes) md += "- " + n + "\n";
     for (const auto& w : e.fit.identifiability.weak) md += "- " + w.description + "\n";
+  } else if (outcome.final_estimate && std::isfinite(outcome.final_estimate->fit.eg_deg_per_g) &&
+             outcome.final_estimate->fit.eg_se_deg_per_g > 0) {
+    const auto& f = outcome.final_estimate->fit;
+    std::snprintf(buf, sizeof buf, "- **EG = %.4f ± %.4f deg/g: NOT VALID** — ", f.eg_deg_per_g, f.eg_se_deg_per_g);
+    md += buf + f.reason + "\n";
   } else {
     md += "No valid estimate: " +
           (outcome.final_estimate ? outcome.final_estimate->fit.reason : std::string("no gated data")) + "\n";
+  }
+  if (outcome.final_estimate) {
+    const auto& pl = outcome.final_estimate->plausibility;
+    md += "\nPlausibility (docs/monitoring.md):\n\n| check | verdict | value | informative data | |\n|---|---|---|---|---|\n";
+    for (const auto& c : pl.checks) {
+      std::snprintf(buf, sizeof buf, "| %s | %s | %.4g | %.0f s | ", c.name.c_str(), adequacy::VerdictName(c.verdict), c.value,
+                    c.informative_s);
+      md += buf + c.message + " |\n";
+    }
+    std::snprintf(buf, sizeof buf, "\n%zu drives checked, %d failed a data check", pl.drives.size(), pl.drives_failed);
+    md += buf + std::string(pl.drives_failed ? " (listed in estimate.json)" : "") + ".\n";
   }
   md += "\nFiles: `estimate.json`, `eg_history.csv`, `drives.csv`, `gate.csv`, `coverage.csv`";
   // Plots through the project's venv (optional: the numbers above do not depend on it).
@@ -246,9 +289,27 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
     std::printf("  RMSE train %.4f m/s^2, validation %s\n", e.fit.rmse_train_mps2, validation);
     std::printf("  steady-state check: EG = %s\n", e.steady_state.valid ? steady : e.steady_state.reason.c_str());
     std::printf("  adequacy: %s — %s\n", adequacy::StateName(e.adequacy.state), e.adequacy.explanation.c_str());
+  } else if (outcome.final_estimate && std::isfinite(outcome.final_estimate->fit.eg_deg_per_g) &&
+             outcome.final_estimate->fit.eg_se_deg_per_g > 0) {
+    const auto& f = outcome.final_estimate->fit;
+    std::printf("  EG = %.4f ± %.4f deg/g   NOT VALID: %s\n", f.eg_deg_per_g, f.eg_se_deg_per_g, f.reason.c_str());
   } else {
     std::printf("  no valid estimate: %s\n",
                 outcome.final_estimate ? outcome.final_estimate->fit.reason.c_str() : "no gated data in the window");
+  }
+  if (outcome.final_estimate) {
+    std::printf("  plausibility:");
+    const char* sep = " ";
+    for (const auto& c : outcome.final_estimate->plausibility.checks) {
+      if (c.verdict == adequacy::Verdict::kSkipped) {
+        std::printf("%s%s skipped", sep, c.name.c_str());
+      } else {
+        std::printf("%s%s %s (%.3g)", sep, c.name.c_str(), adequacy::VerdictName(c.verdict), c.value);
+      }
+      sep = ", ";
+    }
+    std::printf("; %d of %zu drives failed a data check\n", outcome.final_estimate->plausibility.drives_failed,
+                outcome.final_estimate->plausibility.drives.size());
   }
   const auto& gc = pipeline.gate().counters();
   std::printf("  gate:");

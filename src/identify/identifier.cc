@@ -13,6 +13,8 @@
 #include "chunk_cost.h"
 
 namespace ndsid::identify {
+
+std::string CeresVersion() { return CERES_VERSION_STRING; }
 namespace {
 
 using CostFn = ChunkCost;

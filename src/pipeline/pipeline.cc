@@ -131,6 +131,34 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   e.training_segments = snap.training.size();
   e.validation_segments = snap.validation.size();
   e.fit = std::move(fit);
+  // Plausibility (docs/monitoring.md): a fit of data that break the kinematics, or an EG that is
+  // unphysical or undetermined, is published as not valid, with the checks' words as reason.
+  std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
+  all.insert(all.end(), snap.validation.begin(), snap.validation.end());
+  e.plausibility = adequacy::CheckData(all, config_.plausibility);
+  if (e.fit.valid) {
+    adequacy::EstimateFacts facts;
+    facts.steer_ratio = snap.steady_state.valid ? snap.steady_state.steer_ratio : 0;
+    facts.eg_deg_per_g = e.fit.eg_deg_per_g;
+    facts.eg_se_deg_per_g = e.fit.eg_se_deg_per_g;
+    for (const auto& p : e.fit.params) {
+      if (p.fixed) continue;
+      ++facts.free_params;
+      facts.free_params_at_bound += p.at_bound ? 1 : 0;
+    }
+    adequacy::CheckEstimate(facts, config_.plausibility, e.plausibility);
+    for (const auto& d : e.plausibility.drives) {  // each failing drive once
+      for (const auto& c : d.checks) {
+        if (c.verdict == adequacy::Verdict::kFailed && implausible_drives_reported_.insert(d.drive_id).second) {
+          spdlog::warn("plausibility: drive {} (from t = {:.3f} s): {}", d.drive_id, 1e-9 * static_cast<double>(d.t0_ns), c.message);
+        }
+      }
+    }
+    if (!e.plausibility.passed()) {
+      e.fit.valid = false;
+      e.fit.reason = e.plausibility.Reason();
+    }
+  }
   if (e.fit.valid) {
     e.adequacy = adequacy_.Update(snap.gated_hours, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2, snap.coverage);
     last_ = e;

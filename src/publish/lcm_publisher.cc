@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <lcm/lcm-cpp.hpp>
+#include <lcm/lcm.h>
 
 #include "ndsid/common/error.h"
 #include "ndsid/estimate_t.hpp"
@@ -270,6 +271,10 @@ EstimateMessage DecodeEstimate(const std::string& bytes) {
   m.adequacy_explanation = o.adequacy_explanation;
   m.effects = o.effects;
   return m;
+}
+
+std::string LcmVersion() {
+  return std::to_string(LCM_MAJOR_VERSION) + "." + std::to_string(LCM_MINOR_VERSION) + "." + std::to_string(LCM_MICRO_VERSION);
 }
 
 }  // namespace ndsid::publish

@@ -156,7 +156,9 @@ TEST(DaemonSocketCan, IdentifiesAndMonitorsFromSocketAtRecordedSpeed) {
     sq += (m.lat_accel_mps2 - m.lat_accel_model_mps2) * (m.lat_accel_mps2 - m.lat_accel_model_mps2);
     ++n;
   }
-  ASSERT_GT(n, 50);
+  // The monitor switches to a fitted model at the first valid estimate: with this short bus, the
+  // earlier fits are not determined (sigma(EG) ~ |EG|) and not valid, so fewer samples remain.
+  ASSERT_GT(n, 10);
   std::printf("socketcan: %zu frames, EG %.6e (truth %.6e), %d identifications, monitor RMS %.3f m/s^2 over %d\n",
               frames.size(), e.eg_rad_per_mps2, truth_eg, e.identifications, std::sqrt(sq / n), n);
   EXPECT_LT(std::sqrt(sq / n), 0.15);

@@ -242,6 +242,31 @@ def MonitorIsRateLimitedInWallClockTime():
         case.cleanup()
 
 
+def ImplausibleEstimateIsPublishedNotValid():
+    """A configuration with the a_y sign flipped: the daemon still fits, but publishes the
+    estimate with valid = false and the plausibility check's words as reason (issue 12 item 3)."""
+    lcm, ndsid = lcm_modules()
+    case = Case("implausible", drives=2, drive_s=300)
+    try:
+        log = os.path.join(case.dir, "capture.lcmlog")
+        cfg = case.config(url=f"file://{log}?mode=w")
+        text = open(cfg).read().replace("signal: LateralAcceleration, unit: m/s^2, sign: 1",
+                                        "signal: LateralAcceleration, unit: m/s^2, sign: -1")
+        check("sign: -1" in text, "the a_y sign was not flipped in the test config")
+        with open(cfg, "w") as f:
+            f.write(text)
+        p = case.run(cfg)
+        estimates = [ndsid.estimate_t.decode(ev.data) for ev in lcm.EventLog(log, "r")
+                     if ev.channel == case.prefix + "ESTIMATE"]
+        check(estimates, f"no estimate published (exit {p.returncode}) {p.stderr[-500:]}")
+        last = estimates[-1]
+        print(f"{len(estimates)} estimates; last valid={last.valid} reason={last.reason[:200]}")
+        check(not any(e.valid for e in estimates), "an estimate of sign-flipped data was published as valid")
+        check("sign of lateral_acceleration or of yaw_rate is flipped" in last.reason, f"reason: {last.reason}")
+    finally:
+        case.cleanup()
+
+
 def JavaTypesDecodeCapturedEstimate():
     lcm, ndsid = lcm_modules()
     need(TYPES_JAR, "ndsid_lcmtypes.jar (build target ndsid_lcmtypes_java)")

@@ -125,6 +125,22 @@ struct AdequacyConfig {
   double kl_threshold = 0.03;       // coverage growth (KL divergence, nats) considered flat
 };
 
+// Plausibility of the data and of the estimate (docs/monitoring.md): an estimate that fails a
+// check is published with valid = false and the check's words as its reason.
+struct PlausibilityConfig {
+  double kinematic_gain_min = 0.8;       // a_y / (v r) regression gain, physically 1 (a_y = v (r + beta'))
+  double kinematic_gain_max = 1.25;
+  double kinematic_correlation_min = 0.7;
+  double steer_yaw_correlation_min = 0.3;  // r against v d_sw: positive in ISO 8855
+  double steer_ratio_min = 8;            // steady-state steering-wheel to road-wheel ratio
+  double steer_ratio_max = 30;
+  double eg_min_deg_per_g = -2;          // self-steering gradient of a road vehicle
+  double eg_max_deg_per_g = 12;
+  double eg_rel_se_max = 0.5;            // sigma(EG) / |EG| above this: not determined ...
+  double eg_se_floor_deg_per_g = 0.25;   // ... unless sigma(EG) is below this (EG near 0 is fine)
+  double min_informative_s = 20;         // a check needs this much informative data (else skipped)
+};
+
 struct LcmConfig {
   std::string url = "udpm://239.255.76.67:7667?ttl=0";
   std::string estimate_channel = "NDSID_ESTIMATE";
@@ -166,6 +182,7 @@ struct Config {
   GateConfig gate;
   IdentificationConfig identification;
   AdequacyConfig adequacy;
+  PlausibilityConfig plausibility;
   LcmConfig lcm;
   std::string state_dir = "/var/lib/ndsid";
   std::string report_dir = "out/report";

@@ -35,6 +35,9 @@ struct WeakDirection {
   std::string description;          // e.g. "+0.50 m +0.50 Jz +0.50 cv +0.50 ch"
 };
 
+// "2.1.0": the Ceres Solver this was built against (`ndsid version`).
+std::string CeresVersion();
+
 struct IdentifiabilityReport {
   std::array<double, model::kNumParams> singular_values{};  // of the column-scaled Jacobian (free params)
   double condition_number = 0;

@@ -6,11 +6,13 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <set>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "ndsid/adequacy/adequacy.h"
+#include "ndsid/adequacy/plausibility.h"
 #include "ndsid/can/can_frame.h"
 #include "ndsid/config/config.h"
 #include "ndsid/dbc/database.h"
@@ -29,6 +31,7 @@ struct Estimate {
   identify::IdentificationResult fit;
   stats::SteadyStateEstimate steady_state;
   adequacy::Report adequacy;
+  adequacy::PlausibilityReport plausibility;  // checks of the window's data and of this estimate
   double gated_hours = 0;
   double window_hours = 0;
   size_t training_segments = 0;
@@ -116,6 +119,7 @@ class Pipeline {
   std::vector<sync::Sample> samples_;
   std::optional<Estimate> last_;
   std::vector<Estimate> history_;
+  std::set<int64_t> implausible_drives_reported_;  // drives whose failed check was logged
   int64_t data_time_ns_ = 0;
   int64_t last_fit_data_ns_ = 0;
   double last_fit_gated_hours_ = -1;

@@ -45,5 +45,6 @@ std::string EncodeEstimate(const EstimateMessage& m);
 std::string EncodeStatus(const StatusMessage& m);
 std::string EncodeMonitor(const MonitorMessage& m);
 EstimateMessage DecodeEstimate(const std::string& bytes);  // throws ndsid::Error on a bad buffer
+std::string LcmVersion();  // "1.3.1": the LCM library this was built against (`ndsid version`)
 
 }  // namespace ndsid::publish

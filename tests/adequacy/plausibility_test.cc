@@ -1,0 +1,134 @@
+// Plausibility checks on synthetic drives that obey the kinematics (a_y = v r, r = v d/(is l
+// (1 + v^2/vch^2))) with sensor noise, and on the same drives with the sign and unit mistakes a
+// hand-written configuration makes. Several seeds; the limits are the documented defaults.
+#include "ndsid/adequacy/plausibility.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace ndsid::adequacy {
+namespace {
+
+struct Mistake {
+  double ay_scale = 1, yaw_scale = 1, steer_scale = 1, speed_scale = 1;
+};
+
+// One drive of `seconds` at 50 Hz: sinusoidal steering at varying speed, yaw rate from the
+// steady-state single-track relation, a_y = v r, each with noise; then the mistake applied to
+// what the bus "says".
+stats::Segment Drive(int64_t id, double seconds, uint64_t seed, const Mistake& m) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0, 1);
+  stats::Segment seg;
+  seg.drive_id = id;
+  seg.t0_ns = id * 3'600'000'000'000;
+  seg.dt_s = 0.02;
+  seg.has_yaw_rate = true;
+  const double is = 15, l = 2.7, vch2 = 20.0 * 20.0;
+  for (int i = 0; i < static_cast<int>(seconds / seg.dt_s); ++i) {
+    const double t = i * seg.dt_s;
+    const double v = 15 + 8 * std::sin(0.01 * t + seed);
+    const double d_sw = 0.6 * std::sin(0.3 * t) * std::sin(0.05 * t + 1);  // rad at the wheel
+    const double r = v * d_sw / (is * l * (1 + v * v / vch2));
+    const double ay = v * r;
+    seg.samples.push_back({.steer_rad = static_cast<float>((d_sw + 0.002 * noise(rng)) * m.steer_scale),
+                           .speed_mps = static_cast<float>((v + 0.02 * noise(rng)) * m.speed_scale),
+                           .lat_accel_mps2 = static_cast<float>((ay + 0.05 * noise(rng)) * m.ay_scale),
+                           .yaw_rate_radps = static_cast<float>((r + 0.002 * noise(rng)) * m.yaw_scale),
+                           .long_accel_mps2 = 0});
+  }
+  return seg;
+}
+
+PlausibilityReport CheckDrives(const Mistake& m, uint64_t seed, double seconds = 300) {
+  std::vector<stats::Segment> segs{Drive(0, seconds, seed, m), Drive(1, seconds, seed + 1, m)};
+  std::vector<const stats::Segment*> ptrs{&segs[0], &segs[1]};
+  return CheckData(ptrs, config::PlausibilityConfig{});
+}
+
+const Check& Find(const PlausibilityReport& r, const std::string& name) {
+  for (const Check& c : r.checks)
+    if (c.name == name) return c;
+  throw std::runtime_error("no check " + name);
+}
+
+TEST(Plausibility, ConsistentDataPassOnEverySeed) {
+  for (uint64_t seed : {1, 2, 3, 4, 5}) {
+    const PlausibilityReport r = CheckDrives({}, seed);
+    EXPECT_TRUE(r.passed()) << r.Reason();
+    EXPECT_NEAR(Find(r, "kinematics").value, 1.0, 0.05) << seed;
+    EXPECT_GT(Find(r, "steering_sign").value, 0.9) << seed;
+    EXPECT_EQ(r.drives_failed, 0);
+  }
+}
+
+TEST(Plausibility, FlippedLateralAccelerationSignIsNamed) {
+  for (uint64_t seed : {1, 2, 3}) {
+    const PlausibilityReport r = CheckDrives({.ay_scale = -1}, seed);
+    const Check& k = Find(r, "kinematics");
+    EXPECT_EQ(k.verdict, Verdict::kFailed);
+    EXPECT_NEAR(k.value, -1.0, 0.05);
+    EXPECT_NE(r.Reason().find("sign of lateral_acceleration or of yaw_rate is flipped"), std::string::npos) << r.Reason();
+    EXPECT_EQ(r.drives_failed, 2);  // located: every drive
+  }
+}
+
+TEST(Plausibility, WrongUnitsShowAsKinematicGain) {
+  // speed in m/s read as km/h (x 1/3.6), a_y in g read as m/s^2 (x 1/9.81), yaw rate in rad/s
+  // read as deg/s (x 1/57.3): the gain is off by the unit factor, the correlation stays high.
+  for (const Mistake& m : {Mistake{.speed_scale = 1 / 3.6}, Mistake{.ay_scale = 1 / 9.81}, Mistake{.yaw_scale = 3.14159 / 180}}) {
+    const PlausibilityReport r = CheckDrives(m, 7);
+    const Check& k = Find(r, "kinematics");
+    EXPECT_EQ(k.verdict, Verdict::kFailed) << k.message;
+    EXPECT_NE(k.message.find("a unit is wrong"), std::string::npos) << k.message;
+  }
+}
+
+TEST(Plausibility, FlippedSteeringSignIsNamed) {
+  const PlausibilityReport r = CheckDrives({.steer_scale = -1}, 3);
+  EXPECT_EQ(Find(r, "kinematics").verdict, Verdict::kPassed);
+  const Check& s = Find(r, "steering_sign");
+  EXPECT_EQ(s.verdict, Verdict::kFailed);
+  EXPECT_LT(s.value, -0.9);
+  EXPECT_NE(s.message.find("sign of steering_wheel_angle is flipped"), std::string::npos);
+}
+
+TEST(Plausibility, TooLittleTurningDataIsSkippedNotFailed) {
+  const PlausibilityReport r = CheckDrives({.ay_scale = -1}, 1, 8);  // 2 x 8 s, partly turning
+  EXPECT_EQ(Find(r, "kinematics").verdict, Verdict::kSkipped);
+  EXPECT_TRUE(r.passed());
+}
+
+TEST(Plausibility, EstimateChecks) {
+  const config::PlausibilityConfig q;
+  auto run = [&](EstimateFacts f) {
+    PlausibilityReport r;
+    CheckEstimate(f, q, r);
+    return r;
+  };
+  // A good estimate.
+  EXPECT_TRUE(run({.steer_ratio = 15, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.05, .free_params = 5}).passed());
+  // EG near zero with a small sigma is determined (sigma floor), not "sigma comparable to |EG|".
+  EXPECT_TRUE(run({.steer_ratio = 15, .eg_deg_per_g = 0.05, .eg_se_deg_per_g = 0.1, .free_params = 5}).passed());
+  // The RAV4 segment: EG -0.21 +- 7.42, every free parameter on its bound.
+  const PlausibilityReport rav4 = run({.steer_ratio = 13, .eg_deg_per_g = -0.21, .eg_se_deg_per_g = 7.42, .free_params = 5,
+                                       .free_params_at_bound = 5});
+  EXPECT_FALSE(rav4.passed());
+  EXPECT_TRUE(rav4.undetermined());
+  EXPECT_EQ(rav4.Reason().rfind("not determined: ", 0), 0u) << rav4.Reason();
+  // A steering angle in deg configured as rad: steer ratio x57.
+  const PlausibilityReport rad = run({.steer_ratio = 850, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.05, .free_params = 5});
+  EXPECT_FALSE(rad.passed());
+  EXPECT_FALSE(rad.undetermined());
+  EXPECT_NE(rad.Reason().find("steer ratio 850.0"), std::string::npos) << rad.Reason();
+  // Strong oversteer is out of the road-vehicle range.
+  EXPECT_FALSE(run({.steer_ratio = 15, .eg_deg_per_g = -5, .eg_se_deg_per_g = 0.1, .free_params = 5}).passed());
+  // Parameters on bounds alone make it undetermined.
+  EXPECT_TRUE(run({.steer_ratio = 15, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.1, .free_params = 5, .free_params_at_bound = 5})
+                  .undetermined());
+}
+
+}  // namespace
+}  // namespace ndsid::adequacy
