@@ -312,7 +312,7 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
       p.found = true;
       SetSource(p, *bs.s, data);
       p.unit = units[bu].name;
-      p.sign = static_cast<int>(sr) * rel;
+      p.sign = rel;  // r_si is already ISO 8855 (times sr)
       const double p_unit = total > 0 ? w[bu] / total : 0;
       p.confidence = std::min({p_unit, std::fabs(bs.fit.corr), role(Role::kYawRate).confidence});
       p.evidence.push_back(fmt::format(
@@ -322,8 +322,7 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
                                        units[0].to_si / (std::fabs(bs.fit.gain) * l), units[0].name,
                                        units[1].to_si / (std::fabs(bs.fit.gain) * l), units[1].name, p.unit, Pct(p_unit),
                                        bs.s->unit));
-      p.evidence.push_back(fmt::format("sign of g {} → steering has {} sign as the yaw rate", rel > 0 ? "+" : "−",
-                                       rel > 0 ? "the same" : "the opposite"));
+      p.evidence.push_back(fmt::format("sign of g {} against the ISO yaw rate → sign {:+d}", rel > 0 ? "+" : "−", rel));
       if (!bs.s->pair_evidence.empty()) {
         double single = NAN;  // the same fit with the first signal alone
         for (const auto& [src, fit] : steer_fits)

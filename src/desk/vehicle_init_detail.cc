@@ -273,7 +273,8 @@ void SetSource(RoleProposal& p, const Source& s, const BusData& data) {
   double period = first.period_s;
   for (int t : s.terms) period = std::max(period, data.signals[static_cast<size_t>(t)].period_s);
   p.period_s = period;
-  p.timeout_s = std::max(0.1, std::ceil(10.0 * period / 0.05 - 1e-6) * 0.05);
+  // 10 periods rounded up to 0.05 s (2 % allowed for jitter in the measured period), at least 0.1 s.
+  p.timeout_s = std::max(0.1, std::ceil(10.0 * period * 0.98 * 20.0) / 20.0);
 }
 
 Grid::Grid(const BusData& data, double rate_hz)
