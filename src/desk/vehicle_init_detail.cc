@@ -100,7 +100,11 @@ std::vector<std::string> Tokens(const std::string& name) {
   std::string cur;
   for (size_t i = 0; i < name.size(); ++i) {
     const unsigned char c = static_cast<unsigned char>(name[i]);
-    const bool boundary = !cur.empty() && std::isupper(c) && i > 0 && std::islower(static_cast<unsigned char>(name[i - 1]));
+    // camelCase and the end of an acronym: "FLWheelSpd" -> {fl, wheel, spd}.
+    const bool next_lower = i + 1 < name.size() && std::islower(static_cast<unsigned char>(name[i + 1]));
+    const bool boundary = !cur.empty() && std::isupper(c) && i > 0 &&
+                          (std::islower(static_cast<unsigned char>(name[i - 1])) ||
+                           (next_lower && std::isupper(static_cast<unsigned char>(name[i - 1]))));
     if (!std::isalnum(c) || boundary) {
       if (!cur.empty()) out.push_back(Lower(cur));
       cur.clear();

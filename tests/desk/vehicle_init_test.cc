@@ -241,5 +241,82 @@ TEST(VehicleInitRealData, FindsTheRav4RolesAndSplitSteeringAngle) {
       << yaml;
 }
 
+// Other OEMs' buses (opendbc DBCs without cycle times), simulated with `bus.signals` mapping the
+// simulator's quantities onto their signals and every other message sent as zeros, counters and
+// checksums: init must pick the mapped signals among all others, with the DBC's units (GM sends
+// the speed in mph and names the yaw rate's unit "grad/s", Hyundai gives the yaw rate and the
+// speed no unit at all).
+struct OtherBus {
+  const char* dbc;
+  const char* mapping;  // YAML lines under bus.signals
+  const char* steer;
+  const char* speed;
+  const char* speed_unit;
+  const char* lat;
+  const char* yaw;
+};
+
+void PrintTo(const OtherBus& b, std::ostream* os) { *os << b.dbc; }
+
+class OpendbcBus : public ::testing::TestWithParam<OtherBus> {};
+
+TEST_P(OpendbcBus, FindsTheMappedSignalsAmongAllOthers) {
+  const OtherBus& b = GetParam();
+  const std::string dbc_path = std::string(NDSID_REALDATA_DIR) + "/opendbc-dbc/" + b.dbc;
+  if (std::string(NDSID_REALDATA_DIR).empty() || !fs::exists(dbc_path)) GTEST_SKIP() << "../shared/realdata absent: " << dbc_path;
+  const std::string yaml = std::string("seed: 11\nduration: {hours: 0.12}\nbus:\n  default_cycle_ms: 200\n  signals:\n") + b.mapping;
+  const config::SimulationConfig cfg = config::ParseSimulationConfig(yaml, "other_bus_sim.yaml");
+  const dbc::Database db = dbc::ParseDbcFile(dbc_path);
+  const fs::path dir = fs::path(NDSID_BINARY_DIR) / "tests" / "desk" / "vehicle_init_opendbc";
+  fs::create_directories(dir);
+  const std::string log = (dir / (fs::path(b.dbc).stem().string() + ".log")).string();
+  {
+    sim::CandumpLogWriter writer(db, cfg, log);
+    sim::SimulateDrives(cfg, [&](sim::DriveResult&& d) { writer.WriteDrive(d); });
+    writer.Close();
+  }
+  auto reader = can::OpenFrameLog(log);
+  const InitResult r = ProposeVehicleConfig(db, *reader);
+  ASSERT_TRUE(r.MandatoryFound()) << InitSummary(r);
+  auto split = [](const std::string& ref) { return std::make_pair(ref.substr(0, ref.find('.')), ref.substr(ref.find('.') + 1)); };
+  const auto [sm, ss] = split(b.steer);
+  const auto [vm, vs] = split(b.speed);
+  const auto [am, as] = split(b.lat);
+  const auto [ym, ys] = split(b.yaw);
+  ExpectRole(r, Role::kSteeringWheelAngle, sm, ss, "deg", 1);
+  ExpectRole(r, Role::kSpeed, vm, vs, b.speed_unit, 1);
+  ExpectRole(r, Role::kLateralAcceleration, am, as, "m/s^2", 1);
+  ExpectRole(r, Role::kYawRate, ym, ys, "deg/s", 1);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    VehicleInit, OpendbcBus,
+    ::testing::Values(
+        OtherBus{"gm_global_a_powertrain.dbc",
+                 "    steering_wheel_angle: PSCMSteeringAngle.SteeringWheelAngle\n"
+                 "    steering_wheel_rate: PSCMSteeringAngle.SteeringWheelRate\n"
+                 "    vehicle_speed: ECMVehicleSpeed.VehicleSpeed\n"
+                 "    lateral_acceleration: EBCMVehicleDynamic.LateralAcceleration\n"
+                 "    yaw_rate: EBCMVehicleDynamic.YawRate2\n"
+                 "    wheel_speed_fl: EBCMWheelSpdFront.FLWheelSpd\n"
+                 "    wheel_speed_fr: EBCMWheelSpdFront.FRWheelSpd\n"
+                 "    wheel_speed_rl: EBCMWheelSpdRear.RLWheelSpd\n"
+                 "    wheel_speed_rr: EBCMWheelSpdRear.RRWheelSpd\n",
+                 "PSCMSteeringAngle.SteeringWheelAngle", "ECMVehicleSpeed.VehicleSpeed", "mph",
+                 "EBCMVehicleDynamic.LateralAcceleration", "EBCMVehicleDynamic.YawRate2"},
+        OtherBus{"hyundai_can.dbc",
+                 "    steering_wheel_angle: SAS11.SAS_Angle\n"
+                 "    steering_wheel_rate: SAS11.SAS_Speed\n"
+                 "    vehicle_speed: CLU15.CF_Clu_VehicleSpeed\n"
+                 "    lateral_acceleration: ESP12.LAT_ACCEL\n"
+                 "    longitudinal_acceleration: ESP12.LONG_ACCEL\n"
+                 "    yaw_rate: ESP12.YAW_RATE\n"
+                 "    wheel_speed_fl: WHL_SPD11.WHL_SPD_FL\n"
+                 "    wheel_speed_fr: WHL_SPD11.WHL_SPD_FR\n"
+                 "    wheel_speed_rl: WHL_SPD11.WHL_SPD_RL\n"
+                 "    wheel_speed_rr: WHL_SPD11.WHL_SPD_RR\n",
+                 "SAS11.SAS_Angle", "CLU15.CF_Clu_VehicleSpeed", "km/h", "ESP12.LAT_ACCEL", "ESP12.YAW_RATE"}),
+    [](const ::testing::TestParamInfo<OtherBus>& info) { return info.index == 0 ? std::string("Gm") : std::string("Hyundai"); });
+
 }  // namespace
 }  // namespace ndsid::desk
