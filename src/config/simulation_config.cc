@@ -170,7 +170,9 @@ const std::vector<std::string>& SimBusQuantities() {
   static const std::vector<std::string> q = {
       "steering_wheel_angle", "steering_wheel_rate", "vehicle_speed", "lateral_acceleration",
       "longitudinal_acceleration", "yaw_rate", "wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl",
-      "wheel_speed_rr", "valid", "esc_intervention", "reverse_gear"};
+      "wheel_speed_rr", "valid", "esc_intervention", "reverse_gear",
+      // a bus that sends sign and magnitude apart (VW): |value| and 1 while the ISO value is negative
+      "steering_wheel_angle_magnitude", "steering_wheel_angle_negative", "yaw_rate_magnitude", "yaw_rate_negative"};
   return q;
 }
 

@@ -114,7 +114,7 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
   }
   auto role = [&](Role r) -> RoleProposal& { return result.roles[static_cast<size_t>(r)]; };
 
-  std::vector<Source> speed = Candidates(data, RoleKind::kSpeed, kTopCandidates);
+  std::vector<Source> speed = Candidates(data, RoleKind::kSpeed, 2 * kTopCandidates);
   std::vector<Source> yaw = Candidates(data, RoleKind::kYawRate, kTopCandidates);
   std::vector<Source> lat = Candidates(data, RoleKind::kLatAccel, kTopCandidates);
   std::vector<Source> steer = Candidates(data, RoleKind::kSteer, 2 * kTopCandidates);
@@ -257,6 +257,8 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
         .evidence.push_back(fmt::format("unit {} (posterior {}; DBC says '{}'); p99 |a_y| = {:.2f} m/s^2", au[ba].name,
                                         Pct(marg_a[ba] / total), best.a->unit, a99 * fa));
     if (!wheel_text.empty()) role(Role::kSpeed).evidence.push_back(wheel_text);
+    if (!best.r->pair_evidence.empty()) role(Role::kYawRate).evidence.push_back(best.r->pair_evidence);
+    if (!best.a->pair_evidence.empty()) role(Role::kLateralAcceleration).evidence.push_back(best.a->pair_evidence);
     v_si = grid.Of(*best.v);
     for (double& x : v_si) x *= fv;
     size_t moving = 0;
@@ -327,8 +329,9 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
         double single = NAN;  // the same fit with the first signal alone
         for (const auto& [src, fit] : steer_fits)
           if (src->terms.size() == 1 && src->terms[0] == bs.s->terms[0]) single = fit.corr;
-        p.evidence.push_back(fmt::format("{}: corr {:+.3f} against {:+.3f} for {} alone", bs.s->pair_evidence,
-                                         bs.fit.corr, single, p.message + "." + p.signal));
+        p.evidence.push_back(std::isfinite(single) ? fmt::format("{}: corr {:+.3f} against {:+.3f} for {} alone", bs.s->pair_evidence,
+                                                                 bs.fit.corr, single, p.message + "." + p.signal)
+                                                   : bs.s->pair_evidence);
       }
       if (is < 10.0 || is > 25.0) p.evidence.push_back(fmt::format("steer ratio {:.1f} outside 10..25: check the unit", is));
     } else {

@@ -155,15 +155,20 @@ int NameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
       return 2 * steer + msg + 2 * angle + unit + Any(mt, {"sensor"});
     }
     case RoleKind::kSpeed: {
-      if (!(Any(t, {"speed", "spd", "veloc", "geschw"}) || Contains(low, {"geschw"}))) return 0;
+      // Named a speed, or only in a speed unit (VW's ESP_v_Signal in Unit_KiloMeterPerHour).
+      const bool named = Any(t, {"speed", "spd", "veloc", "geschw"}) || Contains(low, {"geschw"});
+      const bool unit = MatchUnit(SpeedUnits(), s.unit) >= 0;
+      if (!named && !unit) return 0;
       if (Any(t, {"wheel", "whl", "rad", "engine", "eng", "rpm", "cruise", "hud", "fan", "wiper", "steer", "rate",
-                  "accel", "rel", "obj", "nav", "gear", "rough", "disp", "left", "right", "lenk", "sound", "acc"}))
+                  "accel", "rel", "obj", "nav", "gear", "rough", "disp", "left", "right", "lenk", "sound", "acc",
+                  "angez", "anzeige", "wunsch", "soll", "tempo", "lim"}) ||
+          Any(mt, {"wheel", "whl", "acc", "cruise", "hud", "nav"}))
         return 0;
-      return 3 + Any(t, {"vehicle", "veh", "car", "xmission", "fzg"}) + (MatchUnit(SpeedUnits(), s.unit) >= 0);
+      return (named ? 3 : 1) + Any(t, {"vehicle", "veh", "car", "xmission", "fzg"}) + unit;
     }
     case RoleKind::kWheelSpeed: {
       const bool wheel = Any(t, {"wheel", "whl", "rad"}) || Any(mt, {"wheel", "whl"});
-      const bool speed = Any(t, {"speed", "spd", "geschw"}) || Any(mt, {"speed", "spd"});
+      const bool speed = Any(t, {"speed", "spd"}) || Contains(low, {"geschw"}) || Any(mt, {"speed", "spd"});
       const bool corner = AnyExact(t, {"fl", "fr", "rl", "rr", "vl", "vr", "hl", "hr", "lf", "rf", "lr"});
       return wheel && speed && corner ? 3 : 0;
     }
@@ -348,7 +353,7 @@ const std::vector<UnitOption>& YawUnits() {
 }
 const std::vector<UnitOption>& AccelUnits() {
   static const std::vector<UnitOption> u = {
-      {"m/s^2", 1.0, {"m/s^2", "m/s2", "m/s²", "m/s/s", "mps2", "unit_meterpersecondsquar", "unit_meterpersecondsquared"}},
+      {"m/s^2", 1.0, {"m/s^2", "m/s2", "m/s²", "m/s/s", "mps2", "unit_meterpersecondsquar", "unit_meterpersecondsquared", "unit_meterperseconsquar"}},
       {"g", 9.80665, {"g", "unit_forceofgravi", "unit_forceofgravity"}}};
   return u;
 }

@@ -25,7 +25,8 @@ constexpr int64_t kTick_us = 10000;  // 100 Hz sample grid = the fastest cycle
 enum class Quantity {
   kZero, kSteerAngle, kSteerRate, kValid, kLatAccel, kLongAccel, kYawRate, kEsp, kWheelFL, kWheelFR, kWheelRL,
   kWheelRR, kSpeed, kBrake, kEngineSpeed, kEngineTorque, kPedal, kGear, kReverse, kOdometer, kAmbient,
-  kBatteryVoltage, kBatteryCurrent, kCabinTemp, kFan, kAc, kCounter, kChecksum, kMultiplexor
+  kBatteryVoltage, kBatteryCurrent, kCabinTemp, kFan, kAc, kCounter, kChecksum, kMultiplexor,
+  kSteerAngleMagnitude, kSteerAngleNegative, kYawRateMagnitude, kYawRateNegative  // bus.signals only
 };
 
 Quantity QuantityFor(const std::string& name) {
@@ -60,7 +61,11 @@ Quantity QuantityForBusName(const std::string& name) {
       {"wheel_speed_fl", Quantity::kWheelFL},          {"wheel_speed_fr", Quantity::kWheelFR},
       {"wheel_speed_rl", Quantity::kWheelRL},          {"wheel_speed_rr", Quantity::kWheelRR},
       {"valid", Quantity::kValid},                     {"esc_intervention", Quantity::kEsp},
-      {"reverse_gear", Quantity::kReverse}};
+      {"reverse_gear", Quantity::kReverse},
+      {"steering_wheel_angle_magnitude", Quantity::kSteerAngleMagnitude},
+      {"steering_wheel_angle_negative", Quantity::kSteerAngleNegative},
+      {"yaw_rate_magnitude", Quantity::kYawRateMagnitude},
+      {"yaw_rate_negative", Quantity::kYawRateNegative}};
   const auto it = table.find(name);
   return it == table.end() ? Quantity::kZero : it->second;
 }
@@ -70,14 +75,16 @@ Quantity QuantityForBusName(const std::string& name) {
 double UnitFactor(Quantity q, std::string unit) {
   for (char& c : unit) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   switch (q) {
-    case Quantity::kSteerAngle: return unit == "rad" ? M_PI / 180.0 : 1.0;
+    case Quantity::kSteerAngle:
+    case Quantity::kSteerAngleMagnitude: return unit == "rad" ? M_PI / 180.0 : 1.0;
     case Quantity::kSteerRate:
-    case Quantity::kYawRate: return unit == "rad/s" ? M_PI / 180.0 : 1.0;
+    case Quantity::kYawRate:
+    case Quantity::kYawRateMagnitude: return unit == "rad/s" ? M_PI / 180.0 : 1.0;
     case Quantity::kSpeed:
     case Quantity::kWheelFL: case Quantity::kWheelFR: case Quantity::kWheelRL: case Quantity::kWheelRR:
       return unit == "m/s" ? 1.0 / 3.6 : unit == "mph" ? 1.0 / 1.609344 : 1.0;
     case Quantity::kLatAccel:
-    case Quantity::kLongAccel: return unit == "g" ? 1.0 / 9.80665 : 1.0;
+    case Quantity::kLongAccel: return unit == "g" || unit == "unit_forceofgravi" ? 1.0 / 9.80665 : 1.0;
     default: return 1.0;
   }
 }
@@ -218,6 +225,10 @@ void FrameEncoder::EncodeDriveImpl(const DriveResult& drive, void (*emit)(void*,
           case Quantity::kMultiplexor: x = static_cast<double>(page); break;
           case Quantity::kSteerAngle: x = valid ? s.steer_sw_meas_rad[i] * kRadToDeg : 0.0; break;
           case Quantity::kSteerRate: x = valid ? s.steer_rate_meas_radps[i] * kRadToDeg : 0.0; break;
+          case Quantity::kSteerAngleMagnitude: x = valid ? std::fabs(s.steer_sw_meas_rad[i]) * kRadToDeg : 0.0; break;
+          case Quantity::kSteerAngleNegative: x = valid && s.steer_sw_meas_rad[i] < 0 ? 1 : 0; break;
+          case Quantity::kYawRateMagnitude: x = valid ? std::fabs(s.yaw_rate_meas_radps[i]) * kRadToDeg : 0.0; break;
+          case Quantity::kYawRateNegative: x = valid && s.yaw_rate_meas_radps[i] < 0 ? 1 : 0; break;
           case Quantity::kValid: x = valid ? 1 : 0; break;
           case Quantity::kLatAccel: x = valid ? s.a_y_meas_mps2[i] : 0.0; break;
           case Quantity::kLongAccel: x = valid ? s.a_x_meas_mps2[i] : 0.0; break;

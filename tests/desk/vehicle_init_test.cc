@@ -245,7 +245,7 @@ TEST(VehicleInitRealData, FindsTheRav4RolesAndSplitSteeringAngle) {
 // simulator's quantities onto their signals and every other message sent as zeros, counters and
 // checksums: init must pick the mapped signals among all others, with the DBC's units (GM sends
 // the speed in mph and names the yaw rate's unit "grad/s", Hyundai gives the yaw rate and the
-// speed no unit at all).
+// speed no unit at all, VW splits steering and yaw rate into magnitude and sign).
 struct OtherBus {
   const char* dbc;
   const char* mapping;  // YAML lines under bus.signals
@@ -254,6 +254,9 @@ struct OtherBus {
   const char* speed_unit;
   const char* lat;
   const char* yaw;
+  const char* lat_unit = "m/s^2";
+  const char* steer_expression = nullptr;  // when the role is a role expression
+  const char* yaw_expression = nullptr;
 };
 
 void PrintTo(const OtherBus& b, std::ostream* os) { *os << b.dbc; }
@@ -285,8 +288,10 @@ TEST_P(OpendbcBus, FindsTheMappedSignalsAmongAllOthers) {
   const auto [ym, ys] = split(b.yaw);
   ExpectRole(r, Role::kSteeringWheelAngle, sm, ss, "deg", 1);
   ExpectRole(r, Role::kSpeed, vm, vs, b.speed_unit, 1);
-  ExpectRole(r, Role::kLateralAcceleration, am, as, "m/s^2", 1);
+  ExpectRole(r, Role::kLateralAcceleration, am, as, b.lat_unit, 1);
   ExpectRole(r, Role::kYawRate, ym, ys, "deg/s", 1);
+  EXPECT_EQ(r.Find(Role::kSteeringWheelAngle)->expression, b.steer_expression ? b.steer_expression : b.steer);
+  EXPECT_EQ(r.Find(Role::kYawRate)->expression, b.yaw_expression ? b.yaw_expression : b.yaw);
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -315,8 +320,24 @@ INSTANTIATE_TEST_SUITE_P(
                  "    wheel_speed_fr: WHL_SPD11.WHL_SPD_FR\n"
                  "    wheel_speed_rl: WHL_SPD11.WHL_SPD_RL\n"
                  "    wheel_speed_rr: WHL_SPD11.WHL_SPD_RR\n",
-                 "SAS11.SAS_Angle", "CLU15.CF_Clu_VehicleSpeed", "km/h", "ESP12.LAT_ACCEL", "ESP12.YAW_RATE"}),
-    [](const ::testing::TestParamInfo<OtherBus>& info) { return info.index == 0 ? std::string("Gm") : std::string("Hyundai"); });
+                 "SAS11.SAS_Angle", "CLU15.CF_Clu_VehicleSpeed", "km/h", "ESP12.LAT_ACCEL", "ESP12.YAW_RATE"},
+        // VW sends steering and yaw rate as magnitude + sign bit, a_y in g, the speed named only
+        // by its unit; the roles are role expressions.
+        OtherBus{"vw_mqb.dbc",
+                 "    steering_wheel_angle_magnitude: LWI_01.LWI_Lenkradwinkel\n"
+                 "    steering_wheel_angle_negative: LWI_01.LWI_VZ_Lenkradwinkel\n"
+                 "    vehicle_speed: ESP_21.ESP_v_Signal\n"
+                 "    lateral_acceleration: ESP_02.ESP_Querbeschleunigung\n"
+                 "    longitudinal_acceleration: ESP_02.ESP_Laengsbeschl\n"
+                 "    yaw_rate_magnitude: ESP_02.ESP_Gierrate\n"
+                 "    yaw_rate_negative: ESP_02.ESP_VZ_Gierrate\n",
+                 "LWI_01.LWI_Lenkradwinkel", "ESP_21.ESP_v_Signal", "km/h", "ESP_02.ESP_Querbeschleunigung",
+                 "ESP_02.ESP_Gierrate", "g",
+                 "LWI_01.LWI_Lenkradwinkel * (1 - 2 * LWI_01.LWI_VZ_Lenkradwinkel)",
+                 "ESP_02.ESP_Gierrate * (1 - 2 * ESP_02.ESP_VZ_Gierrate)"}),
+    [](const ::testing::TestParamInfo<OtherBus>& info) {
+      return std::string(info.index == 0 ? "Gm" : info.index == 1 ? "Hyundai" : "Vw");
+    });
 
 }  // namespace
 }  // namespace ndsid::desk
