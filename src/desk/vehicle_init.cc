@@ -102,7 +102,7 @@ std::string Pct(double p) { return fmt::format("{:.0f} %", 100.0 * p); }
 
 InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, const InitOptions& options) {
   InitResult result;
-  BusData data = CollectSignals(db, log, options.bus, result.frames);
+  BusData data = CollectSignals(db, log, options.bus, options.max_frames, result.frames, result.truncated);
   if (data.signals.empty()) throw ConfigError(db.file + ": no frame of the log decodes with this DBC (wrong DBC or bus?)");
   result.log_duration_s = data.t1 - data.t0;
   Grid grid(data, kGrid_hz);

@@ -10,6 +10,7 @@
 // comments when they say so, otherwise it is assumed and the summary says so.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,7 @@ namespace ndsid::desk {
 struct InitOptions {
   std::string bus;                     // use only this bus ("" = each message on the bus it is seen most)
   double reference_wheelbase_m = 2.7;  // l for the steer-ratio plausibility (the car's is not known yet)
+  uint64_t max_frames = 20'000'000;    // read at most this many frames (the decoded log is held in memory)
 };
 
 // One role as proposed: its signal(s), unit and sign, the evidence and how sure.
@@ -47,6 +49,7 @@ struct InitResult {
   double log_duration_s = 0;
   double moving_s = 0;              // time with speed above 5 m/s (once the speed is known)
   uint64_t frames = 0;
+  bool truncated = false;           // stopped at InitOptions::max_frames
 
   const RoleProposal* Find(config::Role role) const;
   bool MandatoryFound() const;  // steering, speed and a_y found

@@ -22,71 +22,6 @@ int BusData::Find(const std::string& message, const std::string& signal) const {
   return -1;
 }
 
-BusData CollectSignals(const dbc::Database& db, can::FrameLog& log, const std::string& bus, uint64_t& frames) {
-  const dbc::Decoder decoder(db);
-  std::unordered_map<uint64_t, SignalSeries> by_key;  // (signal index << 16 | bus)
-  std::vector<can::CanFrame> buf(512);
-  std::vector<dbc::DecodedValue> out(std::max<size_t>(1, decoder.max_signals_per_message()));
-  bool first = true;
-  int64_t t0_ns = 0, t1_ns = 0;
-  frames = 0;
-  for (;;) {
-    const can::ReadResult r = log.Read(buf, 0);
-    for (size_t i = 0; i < r.count; ++i) {
-      const can::CanFrame& f = buf[i];
-      ++frames;
-      if (!bus.empty() && (f.bus >= log.bus_names().size() || log.bus_names()[f.bus] != bus)) continue;
-      size_t count = 0;
-      decoder.Decode(f, out, count);
-      if (count == 0) continue;
-      if (first) t0_ns = f.timestamp_ns, first = false;
-      t1_ns = std::max(t1_ns, f.timestamp_ns);
-      const double t = static_cast<double>(f.timestamp_ns - t0_ns) * 1e-9;
-      for (size_t k = 0; k < count; ++k) {
-        const uint64_t key = (static_cast<uint64_t>(out[k].signal_index) << 16) | f.bus;
-        SignalSeries& s = by_key[key];
-        if (s.signal == nullptr) {
-          const auto& sel = decoder.signals()[static_cast<size_t>(out[k].signal_index)];
-          s.message = sel.message, s.signal = sel.signal, s.bus = f.bus;
-        }
-        s.t.push_back(t);
-        s.v.push_back(out[k].value);
-      }
-    }
-    if (r.state == can::SourceState::kEnd) break;
-  }
-  BusData data;
-  data.bus_names = log.bus_names();
-  data.t1 = static_cast<double>(t1_ns - t0_ns) * 1e-9;
-  // Each message on the bus where it has the most frames.
-  std::map<std::string, std::pair<size_t, uint16_t>> most;
-  for (const auto& [key, s] : by_key) {
-    auto& m = most[s.message->name];
-    if (s.t.size() > m.first || (s.t.size() == m.first && s.bus < m.second)) m = {s.t.size(), s.bus};
-  }
-  for (const auto& [name, m] : most) data.message_bus[name] = m.second;
-  for (auto& [key, s] : by_key) {
-    if (data.message_bus[s.message->name] != s.bus) continue;
-    std::vector<double> dt;
-    for (size_t i = 1; i < s.t.size(); i += std::max<size_t>(1, s.t.size() / 2000)) dt.push_back(s.t[i] - s.t[i - 1]);
-    if (!dt.empty()) {
-      std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
-      s.period_s = dt[dt.size() / 2];
-    }
-    const auto [lo, hi] = std::minmax_element(s.v.begin(), s.v.end());
-    s.min = *lo, s.max = *hi;
-    std::set<double> distinct;
-    for (size_t i = 0; i < s.v.size() && distinct.size() < 3; ++i) distinct.insert(s.v[i]);
-    s.varies = distinct.size() >= 3;
-    data.signals.push_back(std::move(s));
-  }
-  // Deterministic order (the map above is unordered): DBC order.
-  std::sort(data.signals.begin(), data.signals.end(), [](const SignalSeries& a, const SignalSeries& b) {
-    return a.message->line != b.message->line ? a.message->line < b.message->line : a.signal->line < b.signal->line;
-  });
-  return data;
-}
-
 namespace {
 
 std::string Lower(std::string s) {
@@ -249,6 +184,90 @@ bool CombineSign(const BusData& data, Source& src) {
 }
 
 }  // namespace
+
+BusData CollectSignals(const dbc::Database& db, can::FrameLog& log, const std::string& bus, uint64_t max_frames,
+                       uint64_t& frames, bool& truncated) {
+  // Only the messages with a signal named like a role (all their signals: a fine or sign partner
+  // may have any name): the decoded log is held in memory.
+  std::vector<dbc::SignalSelector> selection;
+  for (const auto& m : db.messages) {
+    bool any = false;
+    for (const auto& sig : m.signals)
+      for (RoleKind k : {RoleKind::kSteer, RoleKind::kSpeed, RoleKind::kLatAccel, RoleKind::kYawRate,
+                         RoleKind::kLongAccel, RoleKind::kWheelSpeed})
+        any = any || NameScore(k, m, sig) > 0;
+    if (any)
+      for (const auto& sig : m.signals) selection.push_back({m.name, sig.name});
+  }
+  if (selection.empty()) return {};
+  const dbc::Decoder decoder(db, selection);
+  std::unordered_map<uint64_t, SignalSeries> by_key;  // (signal index << 16 | bus)
+  std::vector<can::CanFrame> buf(512);
+  std::vector<dbc::DecodedValue> out(std::max<size_t>(1, decoder.max_signals_per_message()));
+  bool first = true;
+  int64_t t0_ns = 0, t1_ns = 0;
+  frames = 0;
+  truncated = false;
+  for (;;) {
+    const can::ReadResult r = log.Read(buf, 0);
+    for (size_t i = 0; i < r.count && !truncated; ++i) {
+      if (frames >= max_frames) {
+        truncated = true;
+        break;
+      }
+      const can::CanFrame& f = buf[i];
+      ++frames;
+      if (!bus.empty() && (f.bus >= log.bus_names().size() || log.bus_names()[f.bus] != bus)) continue;
+      size_t count = 0;
+      decoder.Decode(f, out, count);
+      if (count == 0) continue;
+      if (first) t0_ns = f.timestamp_ns, first = false;
+      t1_ns = std::max(t1_ns, f.timestamp_ns);
+      const double t = static_cast<double>(f.timestamp_ns - t0_ns) * 1e-9;
+      for (size_t k = 0; k < count; ++k) {
+        const uint64_t key = (static_cast<uint64_t>(out[k].signal_index) << 16) | f.bus;
+        SignalSeries& s = by_key[key];
+        if (s.signal == nullptr) {
+          const auto& sel = decoder.signals()[static_cast<size_t>(out[k].signal_index)];
+          s.message = sel.message, s.signal = sel.signal, s.bus = f.bus;
+        }
+        s.t.push_back(t);
+        s.v.push_back(out[k].value);
+      }
+    }
+    if (r.state == can::SourceState::kEnd || truncated) break;
+  }
+  BusData data;
+  data.bus_names = log.bus_names();
+  data.t1 = static_cast<double>(t1_ns - t0_ns) * 1e-9;
+  // Each message on the bus where it has the most frames.
+  std::map<std::string, std::pair<size_t, uint16_t>> most;
+  for (const auto& [key, s] : by_key) {
+    auto& m = most[s.message->name];
+    if (s.t.size() > m.first || (s.t.size() == m.first && s.bus < m.second)) m = {s.t.size(), s.bus};
+  }
+  for (const auto& [name, m] : most) data.message_bus[name] = m.second;
+  for (auto& [key, s] : by_key) {
+    if (data.message_bus[s.message->name] != s.bus) continue;
+    std::vector<double> dt;
+    for (size_t i = 1; i < s.t.size(); i += std::max<size_t>(1, s.t.size() / 2000)) dt.push_back(s.t[i] - s.t[i - 1]);
+    if (!dt.empty()) {
+      std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+      s.period_s = dt[dt.size() / 2];
+    }
+    const auto [lo, hi] = std::minmax_element(s.v.begin(), s.v.end());
+    s.min = *lo, s.max = *hi;
+    std::set<double> distinct;
+    for (size_t i = 0; i < s.v.size() && distinct.size() < 3; ++i) distinct.insert(s.v[i]);
+    s.varies = distinct.size() >= 3;
+    data.signals.push_back(std::move(s));
+  }
+  // Deterministic order (the map above is unordered): DBC order.
+  std::sort(data.signals.begin(), data.signals.end(), [](const SignalSeries& a, const SignalSeries& b) {
+    return a.message->line != b.message->line ? a.message->line < b.message->line : a.signal->line < b.signal->line;
+  });
+  return data;
+}
 
 std::vector<Source> Candidates(const BusData& data, RoleKind kind, size_t top) {
   std::vector<Source> out;

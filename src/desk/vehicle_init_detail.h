@@ -34,8 +34,10 @@ struct BusData {
   int Find(const std::string& message, const std::string& signal) const;  // -1 if absent
 };
 
-// Decodes the whole log (only `bus` if not empty). Counts the frames read into `frames`.
-BusData CollectSignals(const dbc::Database& db, can::FrameLog& log, const std::string& bus, uint64_t& frames);
+// Decodes the log (only `bus` if not empty) up to `max_frames` frames. Counts the frames read
+// into `frames`; `truncated` when it stopped at the limit.
+BusData CollectSignals(const dbc::Database& db, can::FrameLog& log, const std::string& bus, uint64_t max_frames,
+                       uint64_t& frames, bool& truncated);
 
 enum class RoleKind { kSteer, kSpeed, kLatAccel, kYawRate, kLongAccel, kWheelSpeed };
 

@@ -88,6 +88,7 @@ std::string InitSummary(const InitResult& result) {
   std::ostringstream o;
   o << fmt::format("read {} frames, {:.1f} s of log, {:.1f} s above 5 m/s{}\n", result.frames, result.log_duration_s,
                    result.moving_s, result.bus.empty() ? "" : ", roles on bus " + result.bus);
+  if (result.truncated) o << "  (stopped at the frame limit: the rest of the log was not read; --max-frames)\n";
   for (const auto& p : result.roles) {
     const bool mandatory = config::RoleIsRequired(p.role);
     if (!p.found) {

@@ -26,6 +26,7 @@ struct InitArgs {
   std::string bus;
   std::string name;
   double wheelbase_m = 2.7;
+  uint64_t max_frames = 20'000'000;
 };
 
 // `target` as written into a file in `dir`: relative when both are under a common root.
@@ -48,6 +49,7 @@ int Run(const InitArgs& a) {
   InitOptions options;
   options.bus = a.bus;
   options.reference_wheelbase_m = a.wheelbase_m;
+  options.max_frames = a.max_frames;
   const InitResult result = ProposeVehicleConfig(db, *log, options);
   if (!log->io_error().empty()) std::cerr << "ndsid init: " << a.log << ": not read to its end: " << log->io_error() << "\n";
 
@@ -79,6 +81,9 @@ void RegisterInit(CLI::App& parent, int& exit_code) {
   cmd->add_option("--wheelbase", args->wheelbase_m, "wheelbase [m] for the steer-ratio plausibility (10..25)")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 8.0));
+  cmd->add_option("--max-frames", args->max_frames, "read at most this many frames (the decoded log is held in memory, ~1 GB per 20 M frames)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->callback([args, &exit_code] { exit_code = Run(*args); });
 }
 
