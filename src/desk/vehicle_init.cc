@@ -36,67 +36,8 @@ bool InitResult::MandatoryFound() const {
 
 namespace {
 
-constexpr double kGrid_hz = 20.0;
-constexpr double kCharSpeed_mps = 20.0;  // v_ch assumed for the steering fit (EG ~ 2..4 deg/g)
 constexpr double kMoving_mps = 5.0;
 constexpr size_t kTopCandidates = 4;
-
-struct Fit {
-  double gain = 0, intercept = 0, corr = 0, gain_se = 0;
-  size_t n = 0;
-};
-
-// Least squares y = gain x + intercept over the pairs where both are finite.
-Fit LinearFit(const std::vector<double>& x, const std::vector<double>& y) {
-  double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-  size_t n = 0;
-  for (size_t i = 0; i < x.size(); ++i) {
-    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
-    sx += x[i], sy += y[i], sxx += x[i] * x[i], syy += y[i] * y[i], sxy += x[i] * y[i];
-    ++n;
-  }
-  Fit f;
-  f.n = n;
-  if (n < 20) return f;
-  const double dn = static_cast<double>(n);
-  const double vx = sxx - sx * sx / dn, vy = syy - sy * sy / dn, cxy = sxy - sx * sy / dn;
-  if (vx <= 0 || vy <= 0) return f;
-  f.gain = cxy / vx;
-  f.intercept = (sy - f.gain * sx) / dn;
-  f.corr = cxy / std::sqrt(vx * vy);
-  const double resid_var = std::max(0.0, (vy - f.gain * cxy) / std::max(1.0, dn - 2));
-  // Samples at 20 Hz are correlated over ~1 s: count 1 in 20 as independent.
-  f.gain_se = std::sqrt(resid_var / vx) * std::sqrt(20.0);
-  return f;
-}
-
-double Percentile(std::vector<double> v, double q) {
-  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
-  if (v.empty()) return NAN;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1)));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
-
-std::vector<double> Abs(std::vector<double> v) {
-  for (double& x : v) x = std::fabs(x);
-  return v;
-}
-
-// Unit options of one role and a prior from the DBC's unit string.
-std::vector<double> UnitPrior(const std::vector<UnitOption>& options, const std::string& dbc_unit) {
-  const int known = MatchUnit(options, dbc_unit);
-  std::vector<double> prior(options.size(), 1.0 / static_cast<double>(options.size()));
-  if (known >= 0) {
-    for (size_t i = 0; i < options.size(); ++i)
-      prior[i] = static_cast<int>(i) == known ? 0.9 : 0.1 / static_cast<double>(options.size() - 1);
-  }
-  return prior;
-}
-
-double Gauss(double z) { return std::exp(-0.5 * z * z); }
-
-std::string Pct(double p) { return fmt::format("{:.0f} %", 100.0 * p); }
 
 }  // namespace
 
@@ -261,9 +202,6 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
     if (!best.a->pair_evidence.empty()) role(Role::kLateralAcceleration).evidence.push_back(best.a->pair_evidence);
     v_si = grid.Of(*best.v);
     for (double& x : v_si) x *= fv;
-    size_t moving = 0;
-    for (double x : v_si) moving += std::isfinite(x) && x > kMoving_mps;
-    result.moving_s = static_cast<double>(moving) / kGrid_hz;
   } else {
     const std::string why = best.v == nullptr
                                 ? "no (speed, yaw rate, a_y) candidates to test a_y = v r with"
@@ -273,8 +211,19 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
       if (role(rl).reason.empty()) role(rl).reason = why;
   }
 
+  // 1b. No yaw rate confirmed: a_y = v^2 d_sw / (is l (1 + v^2/v_ch^2)) instead.
+  const bool yaw_found = !v_si.empty();
+  if (!yaw_found && !speed.empty() && !lat.empty() && !steer.empty()) {
+    v_si = ProposeWithoutYawRate(data, grid, speed, lat, steer, options, result);
+    if (!v_si.empty())
+      for (Role rl : {Role::kSpeed, Role::kLateralAcceleration}) role(rl).reason.clear();
+  }
+  size_t moving = 0;
+  for (double x : v_si) moving += std::isfinite(x) && x > kMoving_mps;
+  result.moving_s = static_cast<double>(moving) / kGrid_hz;
+
   // 2. Steering: r = g v d / (1 + v^2/v_ch^2) at low lateral acceleration.
-  if (!v_si.empty() && !steer.empty()) {
+  if (yaw_found && !steer.empty()) {
     std::vector<double> r_si = grid.Of(*best.r), a_si = grid.Of(*best.a);
     for (double& x : r_si) x *= fr * sr;
     for (double& x : a_si) x *= fa;
@@ -339,8 +288,8 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
                                  : fmt::format("best candidate {} does not follow r = v d_sw / (is l) (corr {:+.2f} < 0.5)",
                                                bs.s->expression, bs.fit.corr);
     }
-  } else if (role(Role::kSteeringWheelAngle).reason.empty()) {
-    role(Role::kSteeringWheelAngle).reason = "needs the speed and yaw rate confirmed first (r = v d_sw / (is l))";
+  } else if (!role(Role::kSteeringWheelAngle).found && role(Role::kSteeringWheelAngle).reason.empty()) {
+    role(Role::kSteeringWheelAngle).reason = "needs the speed and yaw rate (r = v d_sw / (is l)) or a_y (a_y = v^2 d_sw / (is l)) confirmed first";
   }
 
   // 3. a_x = dv/dt.

@@ -1,6 +1,7 @@
 // Private to `ndsid init` (vehicle_init.cc): the decoded bus, candidates by name, the 20 Hz grid.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -86,6 +87,30 @@ const std::vector<UnitOption>& YawUnits();
 const std::vector<UnitOption>& AccelUnits();
 const std::vector<UnitOption>& SteerUnits();
 int MatchUnit(const std::vector<UnitOption>& options, const std::string& dbc_unit);  // -1 unknown
+
+inline constexpr double kGrid_hz = 20.0;
+inline constexpr double kCharSpeed_mps = 20.0;  // v_ch assumed in the steering fits (EG ~ 2..4 deg/g)
+
+struct Fit {
+  double gain = 0, intercept = 0, corr = 0, gain_se = 0;
+  size_t n = 0;
+};
+// Least squares y = gain x + intercept over the pairs where both are finite (n < 20: no fit).
+Fit LinearFit(const std::vector<double>& x, const std::vector<double>& y);
+double Percentile(std::vector<double> v, double q);  // NaN-free quantile, NaN if none
+std::vector<double> Abs(std::vector<double> v);
+// 0.9 on the option the DBC's unit string names (the rest share 0.1), else uniform.
+std::vector<double> UnitPrior(const std::vector<UnitOption>& options, const std::string& dbc_unit);
+inline double Gauss(double z) { return std::exp(-0.5 * z * z); }
+std::string Pct(double p);
+
+// The fallback for a bus without a yaw rate: a_y = v^2 d_sw / (is l (1 + v^2/v_ch^2)) picks
+// (speed, a_y, steering) and their units from a plausible steer ratio; the absolute sign from
+// the steering's comment or assumed. Fills those three roles of `result` (indexed by Role) and
+// returns the speed in m/s on the grid, or an empty vector when nothing fits.
+std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const std::vector<Source>& speed,
+                                          const std::vector<Source>& lat, const std::vector<Source>& steer,
+                                          const InitOptions& options, InitResult& result);
 
 // +1 when a DBC comment says positive to the left (counter-clockwise), -1 to the right, else 0.
 int CommentDirection(const std::string& comment);

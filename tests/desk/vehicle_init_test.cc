@@ -245,7 +245,8 @@ TEST(VehicleInitRealData, FindsTheRav4RolesAndSplitSteeringAngle) {
 // simulator's quantities onto their signals and every other message sent as zeros, counters and
 // checksums: init must pick the mapped signals among all others, with the DBC's units (GM sends
 // the speed in mph and names the yaw rate's unit "grad/s", Hyundai gives the yaw rate and the
-// speed no unit at all, VW splits steering and yaw rate into magnitude and sign).
+// speed no unit at all, VW splits steering and yaw rate into magnitude and sign, Honda has no
+// yaw rate).
 struct OtherBus {
   const char* dbc;
   const char* mapping;  // YAML lines under bus.signals
@@ -289,8 +290,16 @@ TEST_P(OpendbcBus, FindsTheMappedSignalsAmongAllOthers) {
   ExpectRole(r, Role::kSteeringWheelAngle, sm, ss, "deg", 1);
   ExpectRole(r, Role::kSpeed, vm, vs, b.speed_unit, 1);
   ExpectRole(r, Role::kLateralAcceleration, am, as, b.lat_unit, 1);
-  ExpectRole(r, Role::kYawRate, ym, ys, "deg/s", 1);
   EXPECT_EQ(r.Find(Role::kSteeringWheelAngle)->expression, b.steer_expression ? b.steer_expression : b.steer);
+  if (std::string(b.yaw).empty()) {  // no yaw rate on this bus: a_y = v^2 d_sw / (is l ...) instead, said so
+    EXPECT_FALSE(r.Find(Role::kYawRate)->found);
+    bool stated = false;
+    for (const auto& n : r.notes) stated |= n.find("no yaw rate: ISO 8855 sign ASSUMED") != std::string::npos;
+    EXPECT_TRUE(stated);
+    EXPECT_LE(r.Find(Role::kSteeringWheelAngle)->confidence, 0.6);
+    return;
+  }
+  ExpectRole(r, Role::kYawRate, ym, ys, "deg/s", 1);
   EXPECT_EQ(r.Find(Role::kYawRate)->expression, b.yaw_expression ? b.yaw_expression : b.yaw);
 }
 
@@ -334,9 +343,22 @@ INSTANTIATE_TEST_SUITE_P(
                  "LWI_01.LWI_Lenkradwinkel", "ESP_21.ESP_v_Signal", "km/h", "ESP_02.ESP_Querbeschleunigung",
                  "ESP_02.ESP_Gierrate", "g",
                  "LWI_01.LWI_Lenkradwinkel * (1 - 2 * LWI_01.LWI_VZ_Lenkradwinkel)",
-                 "ESP_02.ESP_Gierrate * (1 - 2 * ESP_02.ESP_VZ_Gierrate)"}),
+                 "ESP_02.ESP_Gierrate * (1 - 2 * ESP_02.ESP_VZ_Gierrate)"},
+        // Honda's bus has no yaw rate at all, and three signals named LAT_ACCEL (KINEMATICS' cannot
+        // carry a value: offset -512 with 10 bits of 0.02; it stays constant).
+        OtherBus{"honda_civic_touring_2016_can_generated.dbc",
+                 "    steering_wheel_angle: STEERING_SENSORS.STEER_ANGLE\n"
+                 "    steering_wheel_rate: STEERING_SENSORS.STEER_ANGLE_RATE\n"
+                 "    vehicle_speed: ENGINE_DATA.XMISSION_SPEED\n"
+                 "    lateral_acceleration: VEHICLE_DYNAMICS.LAT_ACCEL\n"
+                 "    longitudinal_acceleration: VEHICLE_DYNAMICS.LONG_ACCEL\n"
+                 "    wheel_speed_fl: WHEEL_SPEEDS.WHEEL_SPEED_FL\n"
+                 "    wheel_speed_fr: WHEEL_SPEEDS.WHEEL_SPEED_FR\n"
+                 "    wheel_speed_rl: WHEEL_SPEEDS.WHEEL_SPEED_RL\n"
+                 "    wheel_speed_rr: WHEEL_SPEEDS.WHEEL_SPEED_RR\n",
+                 "STEERING_SENSORS.STEER_ANGLE", "ENGINE_DATA.XMISSION_SPEED", "km/h", "VEHICLE_DYNAMICS.LAT_ACCEL", ""}),
     [](const ::testing::TestParamInfo<OtherBus>& info) {
-      return std::string(info.index == 0 ? "Gm" : info.index == 1 ? "Hyundai" : "Vw");
+      return std::string(info.index == 0 ? "Gm" : info.index == 1 ? "Hyundai" : info.index == 2 ? "Vw" : "Honda");
     });
 
 }  // namespace
