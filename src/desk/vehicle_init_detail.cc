@@ -74,7 +74,7 @@ const std::initializer_list<const char*> kNeverRole = {
     "desired", "limit", "lim", "offset", "vz", "sign", "init", "error", "override", "max", "min", "set", "alive"};
 
 // How much the names say the signal is `kind` (0: not a candidate).
-int NameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
+int BaseNameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
   const auto t = Tokens(s.name);
   const auto mt = Tokens(m.name);
   const std::string low = Lower(s.name);
@@ -128,6 +128,55 @@ int NameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
     }
   }
   return 0;
+}
+
+// The DBC's other hints, for a signal the names already made a candidate: +1 when its comment
+// names the quantity, +1 when its declared range is plausible for it (in SI, where the DBC's
+// unit says which; opendbc's [0|0] ranges say nothing).
+int NameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
+  const int base = BaseNameScore(kind, m, s);
+  if (base <= 0) return 0;
+  const std::string c = Lower(s.comment);
+  const double range = std::max(std::fabs(s.minimum), std::fabs(s.maximum));
+  auto in_si = [&](const std::vector<UnitOption>& units) {
+    const int u = MatchUnit(units, s.unit);
+    return u < 0 ? NAN : range * units[static_cast<size_t>(u)].to_si;
+  };
+  int hint = 0;
+  switch (kind) {
+    case RoleKind::kSteer: {
+      hint += Contains(c, {"steering", "lenkrad", "steer"}) && Contains(c, {"angle", "winkel"});
+      const double r = in_si(SteerUnits());
+      hint += r >= 5.0 && r <= 60.0;  // +-290..3400 deg
+      break;
+    }
+    case RoleKind::kSpeed: {
+      hint += Contains(c, {"vehicle speed", "fahrzeuggeschw", "velocity"});
+      const double r = in_si(SpeedUnits());
+      hint += r >= 40.0 && r <= 200.0;
+      break;
+    }
+    case RoleKind::kLatAccel: {
+      hint += Contains(c, {"lateral acc", "querbeschl"});
+      const double r = in_si(AccelUnits());
+      hint += r >= 8.0 && r <= 40.0;
+      break;
+    }
+    case RoleKind::kYawRate: {
+      hint += Contains(c, {"yaw rate", "gierrate", "giergeschw"});
+      const double r = in_si(YawUnits());
+      hint += r >= 0.7 && r <= 10.0;  // 40..570 deg/s
+      break;
+    }
+    case RoleKind::kLongAccel: {
+      hint += Contains(c, {"longitudinal acc", "laengsbeschl"});
+      const double r = in_si(AccelUnits());
+      hint += r >= 8.0 && r <= 40.0;
+      break;
+    }
+    case RoleKind::kWheelSpeed: break;
+  }
+  return base + hint;
 }
 
 std::string Ref(const SignalSeries& s) { return s.message->name + "." + s.signal->name; }

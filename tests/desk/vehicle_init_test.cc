@@ -203,6 +203,17 @@ TEST_F(SimulatedBus, WrittenConfigLoadsAndListsRolesNotFound) {
   EXPECT_EQ(c.role(Role::kLongitudinalAcceleration), nullptr);
 }
 
+// Two signals with the same bits of the same frames (identical data, identical fits), the first
+// declared without range or comment: the DBC's comment and declared range decide. (Without them
+// the first listed would win the tie.)
+TEST_F(SimulatedBus, CommentAndRangeDecideBetweenEqualCandidates) {
+  std::string dbc = example_dbc_;
+  const std::string anchor = " SG_ SteeringWheelAngle : ";
+  dbc.insert(dbc.find(anchor), " SG_ SteeringAngleCopy : 7|16@0- (0.1,0) [0|0] \"deg\" LOGGER\n");
+  const InitResult r = Propose(dbc, log_);
+  ExpectRole(r, Role::kSteeringWheelAngle, "STEERING_SENSOR", "SteeringWheelAngle", "deg", 1);
+}
+
 // The real 2017 RAV4 segment (60 s of highway) with opendbc's Toyota DBC, against the hand-made
 // config/rav4_2017.yaml.
 TEST(VehicleInitRealData, FindsTheRav4RolesAndSplitSteeringAngle) {
