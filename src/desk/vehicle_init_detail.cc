@@ -354,59 +354,6 @@ void SetSource(RoleProposal& p, const Source& s, const BusData& data) {
   p.timeout_s = std::max(0.1, std::ceil(10.0 * period * 0.98 * 20.0) / 20.0);
 }
 
-Grid::Grid(const BusData& data, double rate_hz)
-    : data_(data), rate_hz_(rate_hz), n_(static_cast<size_t>(std::max(0.0, (data.t1 - data.t0) * rate_hz)) + 1) {}
-
-const std::vector<double>& Grid::OfSignal(int index) {
-  auto it = signals_.find(index);
-  if (it != signals_.end()) return it->second;
-  const SignalSeries& s = data_.signals[static_cast<size_t>(index)];
-  std::vector<double> g(n_, NAN);
-  const double max_age = std::max(0.5, 5.0 * s.period_s);
-  size_t k = 0;
-  for (size_t i = 0; i < n_; ++i) {
-    const double t = data_.t0 + static_cast<double>(i) / rate_hz_;
-    while (k < s.t.size() && s.t[k] <= t) ++k;
-    if (k > 0 && t - s.t[k - 1] <= max_age) g[i] = s.v[k - 1];
-  }
-  // Centred moving average over ~1 s: the relations init tests are quasi-static, the sensor
-  // noise and quantisation are not (on the real RAV4 segment corr(a_y, v r) goes -0.35 -> -0.81).
-  const size_t w = std::max<size_t>(1, static_cast<size_t>(std::lround(rate_hz_)));
-  if (w > 1 && n_ > w) {
-    std::vector<double> sm(n_, NAN);
-    double sum = 0;
-    size_t bad = 0;
-    for (size_t i = 0; i < n_; ++i) {
-      if (std::isfinite(g[i])) sum += g[i];
-      else ++bad;
-      if (i >= w) {
-        if (std::isfinite(g[i - w])) sum -= g[i - w];
-        else --bad;
-      }
-      if (i + 1 >= w && bad == 0) sm[i + 1 - w + w / 2] = sum / static_cast<double>(w);
-    }
-    g.swap(sm);
-  }
-  return signals_.emplace(index, std::move(g)).first->second;
-}
-
-const std::vector<double>& Grid::Of(const Source& s) {
-  if (s.terms.size() == 1) return OfSignal(s.terms[0]);
-  auto it = sources_.find(s.expression);
-  if (it != sources_.end()) return it->second;
-  std::vector<double> g = OfSignal(s.terms[0]);
-  const std::vector<double>& b = OfSignal(s.terms[1]);
-  for (size_t i = 0; i < g.size(); ++i) {
-    switch (s.combine) {
-      case Source::Combine::kSum: g[i] += b[i]; break;
-      case Source::Combine::kDifference: g[i] -= b[i]; break;
-      case Source::Combine::kSignMagnitude: g[i] *= 1.0 - 2.0 * b[i]; break;
-      case Source::Combine::kSingle: break;
-    }
-  }
-  return sources_.emplace(s.expression, std::move(g)).first->second;
-}
-
 const std::vector<UnitOption>& SpeedUnits() {
   static const std::vector<UnitOption> u = {{"km/h", 1.0 / 3.6, {"km/h", "kph", "kmh", "km/hr", "unit_kilometerperhour"}},
                                             {"m/s", 1.0, {"m/s", "mps", "unit_meterpersecond"}},
