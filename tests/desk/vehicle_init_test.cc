@@ -203,6 +203,28 @@ TEST_F(SimulatedBus, WrittenConfigLoadsAndListsRolesNotFound) {
   EXPECT_EQ(c.role(Role::kLongitudinalAcceleration), nullptr);
 }
 
+// The RAV4's split steering angle, made from the example bus: the same 16 bits decoded as a
+// coarse signal (the upper 12 bits, 1.6 deg steps) plus a fine one (the lower 4 bits, 0.1 deg):
+// coarse + fine is the angle exactly. Init must find the pair and write it as a role expression.
+TEST_F(SimulatedBus, FindsCoarsePlusFineSteeringPair) {
+  std::string dbc = example_dbc_;
+  const std::regex original(" SG_ SteeringWheelAngle : 7\\|16@0- \\(0\\.1,0\\) [^\\n]*\\n");
+  ASSERT_TRUE(std::regex_search(dbc, original));
+  dbc = std::regex_replace(dbc, original,
+                           " SG_ SteeringWheelAngle : 7|12@0- (1.6,0) [-3276.8|3276.7] \"deg\" LOGGER\n"
+                           " SG_ SteeringAngleFine : 11|4@0+ (0.1,0) [0|1.5] \"deg\" LOGGER\n");
+  const InitResult r = Propose(dbc, log_);
+  ExpectRole(r, Role::kSteeringWheelAngle, "STEERING_SENSOR", "SteeringWheelAngle", "deg", 1);
+  const RoleProposal* p = r.Find(Role::kSteeringWheelAngle);
+  EXPECT_TRUE(p->multi_signal);
+  EXPECT_EQ(p->expression, "STEERING_SENSOR.SteeringWheelAngle + STEERING_SENSOR.SteeringAngleFine");
+  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, "split.dbc", "test"});
+  EXPECT_NE(yaml.find("  steering_wheel_angle: {expr: \"STEERING_SENSOR.SteeringWheelAngle + STEERING_SENSOR.SteeringAngleFine\", "
+                      "unit: deg, sign: 1, timeout_s: 0.1}"),
+            std::string::npos)
+      << yaml;
+}
+
 // Two signals with the same bits of the same frames (identical data, identical fits), the first
 // declared without range or comment: the DBC's comment and declared range decide. (Without them
 // the first listed would win the tie.)
