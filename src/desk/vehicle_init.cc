@@ -143,7 +143,9 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
           if (w > top) top = w, bv = i, br = j, ba = l;
         }
     fv = su[bv].to_si, fr = yu[br].to_si, fa = au[ba].to_si;
-    const double p_combo = total > 0 ? top / total : 0;
+    const bool plausible = total > 0;  // else every combination is implausible: confidence 0, CHECK
+    if (!plausible) total = 1;
+    const double p_combo = top / total;
     const double kc = fv * fr / fa;
 
     // The absolute convention: the DBC's comments, else the usual bus convention.
@@ -173,7 +175,8 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
       SetSource(p, s, data);
       p.unit = unit;
       p.sign = sign;
-      p.confidence = std::min({p_unit, p_combo > 0 ? 1.0 : 0.0, std::fabs(best.fit.corr) + 0.0});
+      p.confidence = std::min(p_unit, std::fabs(best.fit.corr));
+      if (!plausible) p.evidence.push_back("no unit combination fits the gain within the plausible ranges");
     };
     fill(role(Role::kSpeed), *best.v, su[bv].name, marg_v[bv] / total, 1);
     fill(role(Role::kYawRate), *best.r, yu[br].name, marg_r[br] / total, static_cast<int>(sr));
