@@ -117,7 +117,7 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
       if (ratio.size() >= 100) {
         wheel_ratio = Percentile(ratio, 0.5);
         const int wu = MatchUnit(su, wheels.front().unit);
-        if (wu >= 0) wheel_factor = su[static_cast<size_t>(wu)].to_si / wheel_ratio;
+        if (wu >= 0 && wheel_ratio != 0) wheel_factor = su[static_cast<size_t>(wu)].to_si / std::fabs(wheel_ratio);
         wheel_text = fmt::format("speed / mean of {} wheel speeds ({}) = {:.4f} (median while moving){}", wheels.size(),
                                  wheels.front().expression, wheel_ratio,
                                  wu >= 0 ? fmt::format("; wheel speeds in {} by the DBC", su[static_cast<size_t>(wu)].name) : "");
@@ -178,7 +178,12 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
       p.confidence = std::min(p_unit, std::fabs(best.fit.corr));
       if (!plausible) p.evidence.push_back("no unit combination fits the gain within the plausible ranges");
     };
-    fill(role(Role::kSpeed), *best.v, su[bv].name, marg_v[bv] / total, 1);
+    // Speed forward positive: a bus that counts it negative (rare) gets sign -1.
+    std::vector<double> moving_v;
+    for (double x : grid.Of(*best.v))
+      if (std::isfinite(x) && std::fabs(x) > 0.2 * v99) moving_v.push_back(x);
+    const int v_sign = !moving_v.empty() && Percentile(moving_v, 0.5) < 0 ? -1 : 1;
+    fill(role(Role::kSpeed), *best.v, su[bv].name, marg_v[bv] / total, v_sign);
     fill(role(Role::kYawRate), *best.r, yu[br].name, marg_r[br] / total, static_cast<int>(sr));
     fill(role(Role::kLateralAcceleration), *best.a, au[ba].name, marg_a[ba] / total, static_cast<int>(sr) * rel_a);
     role(Role::kYawRate).confidence = std::min(role(Role::kYawRate).confidence, p_abs);
@@ -204,7 +209,7 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
     if (!best.r->pair_evidence.empty()) role(Role::kYawRate).evidence.push_back(best.r->pair_evidence);
     if (!best.a->pair_evidence.empty()) role(Role::kLateralAcceleration).evidence.push_back(best.a->pair_evidence);
     v_si = grid.Of(*best.v);
-    for (double& x : v_si) x *= fv;
+    for (double& x : v_si) x *= fv * v_sign;
   } else {
     const std::string why = best.v == nullptr
                                 ? "no (speed, yaw rate, a_y) candidates to test a_y = v r with"

@@ -127,6 +127,17 @@ TEST_F(SimulatedBus, RecoversSpeedInMetresPerSecondWithoutAUnitString) {
   ExpectRole(r, Role::kLateralAcceleration, "ESP_DYNAMICS", "LateralAcceleration", "m/s^2", 1);
 }
 
+// A speed counted negative forward (signed signal, negative factor): sign -1, and the steering
+// fit (which needs v > 4 m/s) still works.
+TEST_F(SimulatedBus, RecoversNegativeSpeedSign) {
+  std::string dbc = WithSignal(example_dbc_, "VehicleSpeed", -1.0);
+  dbc = std::regex_replace(dbc, std::regex("VehicleSpeed : 8\\|16@1\\+"), "VehicleSpeed : 8|16@1-");
+  const InitResult r = Propose(dbc, log_);
+  ExpectRole(r, Role::kSpeed, "VEHICLE_SPEED", "VehicleSpeed", "km/h", -1);
+  ExpectRole(r, Role::kSteeringWheelAngle, "STEERING_SENSOR", "SteeringWheelAngle", "deg", 1);
+  EXPECT_GE(r.Find(Role::kSpeed)->confidence, 0.85);  // the wheel speeds agree in magnitude
+}
+
 // mph labelled km/h: a_y = v r and the wheel speeds (km/h) both say mph.
 TEST_F(SimulatedBus, RecoversSpeedInMphDespiteTheUnitString) {
   const InitResult r = Propose(WithSignal(example_dbc_, "VehicleSpeed", 1.0 / 1.609344), log_);
