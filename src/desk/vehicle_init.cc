@@ -138,6 +138,7 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
           if (rmax > 1.5) w *= 0.05;                 // 86 deg/s
           if (amax > 15.0) w *= 0.05;
           if (std::isfinite(wheel_factor)) w *= Gauss(std::log(su[i].to_si / wheel_factor) / 0.05);
+          if (!std::isfinite(w)) w = 0;
           total += w;
           marg_v[i] += w, marg_r[j] += w, marg_a[l] += w;
           if (w > top) top = w, bv = i, br = j, ba = l;

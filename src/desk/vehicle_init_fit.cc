@@ -177,6 +177,7 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
         double w = pv[i] * pd[j] * pa[m] * Gauss(dist / 0.25);
         if (v99 * su[i].to_si > 75.0 || v99 * su[i].to_si < 1.0) w *= 0.05;
         if (a99 * au[m].to_si > 15.0) w *= 0.05;
+        if (!std::isfinite(w)) w = 0;
         total += w;
         marg_v[i] += w, marg_d[j] += w, marg_a[m] += w;
         if (w > top) top = w, bv = i, bd = j, ba = m, bfit = f, top_is = is;
