@@ -203,7 +203,7 @@ std::vector<Source> FinePairs(const BusData& data, const Source& coarse) {
       src.combine = add ? Source::Combine::kSum : Source::Combine::kDifference;
       src.expression = Ref(c) + (add ? " + " : " - ") + Ref(f);
       src.pair_evidence = fmt::format("{} (|value| <= {:.3g} {}, {}within one {:.3g} {} step of {}) {}", f.signal->name,
-                                      range, f.signal->unit, named ? "named as a fraction, " : "", step, c.signal->unit,
+                                      range, f.signal->unit, named ? "named as the fine part, " : "", step, c.signal->unit,
                                       c.signal->name, add ? "added" : "subtracted");
       src.name_score += 2;
       out.push_back(std::move(src));
