@@ -166,6 +166,16 @@ class MapReader {
 
 }  // namespace
 
+const std::vector<std::string>& SimBusQuantities() {
+  static const std::vector<std::string> q = {
+      "steering_wheel_angle", "steering_wheel_rate", "vehicle_speed", "lateral_acceleration",
+      "longitudinal_acceleration", "yaw_rate", "wheel_speed_fl", "wheel_speed_fr", "wheel_speed_rl",
+      "wheel_speed_rr", "valid", "esc_intervention", "reverse_gear",
+      // a bus that sends sign and magnitude apart (VW): |value| and 1 while the ISO value is negative
+      "steering_wheel_angle_magnitude", "steering_wheel_angle_negative", "yaw_rate_magnitude", "yaw_rate_negative"};
+  return q;
+}
+
 SimulationConfig ParseSimulationConfig(std::string_view yaml_text, const std::string& file_name) {
   SimulationConfig c;
   c.source_file = file_name;
@@ -228,11 +238,19 @@ SimulationConfig ParseSimulationConfig(std::string_view yaml_text, const std::st
     m.Number("lat_accel_disturbance_mps2", n.lat_accel_disturbance_mps2);
     m.Number("lat_accel_disturbance_tau_s", n.lat_accel_disturbance_tau_s);
   });
+  r.Map("bus", [&](MapReader& m) {
+    m.Number("default_cycle_ms", c.bus.default_cycle_ms);
+    m.Number("signal_cycle_ms", c.bus.signal_cycle_ms);
+    m.Map("signals", [&](MapReader& sig) {
+      for (const auto& q : SimBusQuantities()) sig.Text(q.c_str(), c.bus.signals[q]);
+    });
+  });
   r.Map("effects", [&](MapReader& m) {
     for (const auto& e : EffectTable()) m.Number(e.name, c.effects.*e.field);
     m.NumberList("mass_schedule_kg", c.effects.mass_schedule_kg);
   });
   r.Run();
+  for (auto it = c.bus.signals.begin(); it != c.bus.signals.end();) it = it->second.empty() ? c.bus.signals.erase(it) : std::next(it);
   ValidateSimulationConfig(c);
   return c;
 }
@@ -252,6 +270,12 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   auto require = [&](bool ok, const std::string& what) {
     if (!ok) throw ConfigError(where + ": " + what);
   };
+  require(c.bus.default_cycle_ms >= 0 && c.bus.default_cycle_ms <= 10000, "bus.default_cycle_ms must be in 0..10000");
+  require(c.bus.signal_cycle_ms >= 10 && c.bus.signal_cycle_ms <= 10000, "bus.signal_cycle_ms must be in 10..10000");
+  for (const auto& [q, ref] : c.bus.signals) {
+    const auto dot = ref.find('.');
+    require(dot != std::string::npos && dot > 0 && dot + 1 < ref.size(), "bus.signals." + q + ": expected MESSAGE.SIGNAL, got '" + ref + "'");
+  }
   const auto& v = c.vehicle;
   require(v.mass_kg > 100.0 && v.mass_kg < 50000.0, "vehicle.mass_kg must be in (100, 50000) kg");
   require(v.yaw_inertia_kgm2 > 0.0, "vehicle.yaw_inertia_kgm2 must be > 0");

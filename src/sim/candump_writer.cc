@@ -3,6 +3,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -24,7 +25,8 @@ constexpr int64_t kTick_us = 10000;  // 100 Hz sample grid = the fastest cycle
 enum class Quantity {
   kZero, kSteerAngle, kSteerRate, kValid, kLatAccel, kLongAccel, kYawRate, kEsp, kWheelFL, kWheelFR, kWheelRL,
   kWheelRR, kSpeed, kBrake, kEngineSpeed, kEngineTorque, kPedal, kGear, kReverse, kOdometer, kAmbient,
-  kBatteryVoltage, kBatteryCurrent, kCabinTemp, kFan, kAc, kCounter, kChecksum, kMultiplexor
+  kBatteryVoltage, kBatteryCurrent, kCabinTemp, kFan, kAc, kCounter, kChecksum, kMultiplexor,
+  kSteerAngleMagnitude, kSteerAngleNegative, kYawRateMagnitude, kYawRateNegative  // bus.signals only
 };
 
 Quantity QuantityFor(const std::string& name) {
@@ -50,9 +52,47 @@ Quantity QuantityFor(const std::string& name) {
   return Quantity::kZero;
 }
 
+// bus.signals: quantity name -> Quantity.
+Quantity QuantityForBusName(const std::string& name) {
+  static const std::map<std::string, Quantity> table = {
+      {"steering_wheel_angle", Quantity::kSteerAngle}, {"steering_wheel_rate", Quantity::kSteerRate},
+      {"vehicle_speed", Quantity::kSpeed},             {"lateral_acceleration", Quantity::kLatAccel},
+      {"longitudinal_acceleration", Quantity::kLongAccel}, {"yaw_rate", Quantity::kYawRate},
+      {"wheel_speed_fl", Quantity::kWheelFL},          {"wheel_speed_fr", Quantity::kWheelFR},
+      {"wheel_speed_rl", Quantity::kWheelRL},          {"wheel_speed_rr", Quantity::kWheelRR},
+      {"valid", Quantity::kValid},                     {"esc_intervention", Quantity::kEsp},
+      {"reverse_gear", Quantity::kReverse},
+      {"steering_wheel_angle_magnitude", Quantity::kSteerAngleMagnitude},
+      {"steering_wheel_angle_negative", Quantity::kSteerAngleNegative},
+      {"yaw_rate_magnitude", Quantity::kYawRateMagnitude},
+      {"yaw_rate_negative", Quantity::kYawRateNegative}};
+  const auto it = table.find(name);
+  return it == table.end() ? Quantity::kZero : it->second;
+}
+
+// Factor from the quantity's own unit (deg, deg/s, km/h, m/s^2) to the mapped signal's DBC unit,
+// when that is a unit of the same kind; else 1.
+double UnitFactor(Quantity q, std::string unit) {
+  for (char& c : unit) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  switch (q) {
+    case Quantity::kSteerAngle:
+    case Quantity::kSteerAngleMagnitude: return unit == "rad" ? M_PI / 180.0 : 1.0;
+    case Quantity::kSteerRate:
+    case Quantity::kYawRate:
+    case Quantity::kYawRateMagnitude: return unit == "rad/s" ? M_PI / 180.0 : 1.0;
+    case Quantity::kSpeed:
+    case Quantity::kWheelFL: case Quantity::kWheelFR: case Quantity::kWheelRL: case Quantity::kWheelRR:
+      return unit == "m/s" ? 1.0 / 3.6 : unit == "mph" ? 1.0 / 1.609344 : 1.0;
+    case Quantity::kLatAccel:
+    case Quantity::kLongAccel: return unit == "g" || unit == "unit_forceofgravi" ? 1.0 / 9.80665 : 1.0;
+    default: return 1.0;
+  }
+}
+
 struct SignalPlan {
   const dbc::Signal* signal;
   Quantity quantity;
+  double scale = 1.0;  // quantity unit -> the signal's DBC unit (bus.signals only)
 };
 
 struct MessagePlan {
@@ -81,13 +121,39 @@ FrameEncoder::FrameEncoder(const dbc::Database& db, const config::SimulationConf
   for (int64_t p = 300; p <= 9500; p += 400) slots.push_back(p);
   for (size_t i = slots.size(); i > 1; --i) std::swap(slots[i - 1], slots[static_cast<size_t>(rng.Index(static_cast<int>(i)))]);
   size_t slot = 0;
+  // bus.signals: "MESSAGE.SIGNAL" -> quantity; then only those carry the drive.
+  std::map<std::pair<std::string, std::string>, Quantity> mapped;
+  for (const auto& [name, ref] : cfg.bus.signals) {
+    const auto dot = ref.find('.');
+    const std::string msg = ref.substr(0, dot), sig = dot == std::string::npos ? "" : ref.substr(dot + 1);
+    const dbc::Message* m = db.FindMessage(msg);
+    if (m == nullptr || m->FindSignal(sig) == nullptr)
+      throw ConfigError(cfg.source_file + ": bus.signals." + name + ": " + db.file + " has no signal " + ref);
+    mapped[{msg, sig}] = QuantityForBusName(name);
+  }
+  auto carries_mapped = [&](const dbc::Message& m) {
+    for (const auto& s : m.signals)
+      if (mapped.count({m.name, s.name})) return true;
+    return false;
+  };
+  const bool by_map = !mapped.empty();
   for (const auto& m : db.messages) {
-    if (!m.cycle_time_ms || *m.cycle_time_ms <= 0.0) continue;
-    MessagePlan plan{&m, std::max<int64_t>(1, std::llround(*m.cycle_time_ms / 10.0)), 0, 0, {}, {}, 0};
+    double cycle_ms = m.cycle_time_ms && *m.cycle_time_ms > 0.0 ? *m.cycle_time_ms
+                      : by_map && carries_mapped(m)               ? cfg.bus.signal_cycle_ms
+                                                                  : cfg.bus.default_cycle_ms;
+    if (cycle_ms <= 0.0) continue;
+    MessagePlan plan{&m, std::max<int64_t>(1, std::llround(cycle_ms / 10.0)), 0, 0, {}, {}, 0};
     plan.tick_offset = rng.Index(static_cast<int>(plan.cycle_ticks));
     plan.phase_us = slots[slot++ % slots.size()];
     for (const auto& s : m.signals) {
-      plan.signals.push_back({&s, s.mux_role == dbc::MuxRole::kMultiplexor ? Quantity::kMultiplexor : QuantityFor(s.name)});
+      Quantity q = s.mux_role == dbc::MuxRole::kMultiplexor ? Quantity::kMultiplexor : QuantityFor(s.name);
+      double scale = 1.0;
+      if (by_map && q != Quantity::kMultiplexor) {
+        const auto it = mapped.find({m.name, s.name});
+        if (it != mapped.end()) q = it->second, scale = UnitFactor(q, s.unit);
+        else if (q != Quantity::kCounter && q != Quantity::kChecksum) q = Quantity::kZero;
+      }
+      plan.signals.push_back({&s, q, scale});
       if (s.mux_role == dbc::MuxRole::kMultiplexed &&
           std::find(plan.pages.begin(), plan.pages.end(), s.mux_value) == plan.pages.end())
         plan.pages.push_back(s.mux_value);
@@ -152,12 +218,17 @@ void FrameEncoder::EncodeDriveImpl(const DriveResult& drive, void (*emit)(void*,
       for (const SignalPlan& sp : p.signals) {
         const dbc::Signal& sig = *sp.signal;
         if (sig.mux_role == dbc::MuxRole::kMultiplexed && sig.mux_value != page) continue;
+        if (dbc::RequiredBytes(sig) > f.len) continue;  // beyond the 8 bytes a classic frame carries
         double x = 0.0;
         switch (sp.quantity) {
           case Quantity::kZero: x = std::clamp(0.0, sig.minimum, std::max(sig.minimum, sig.maximum)); break;
           case Quantity::kMultiplexor: x = static_cast<double>(page); break;
           case Quantity::kSteerAngle: x = valid ? s.steer_sw_meas_rad[i] * kRadToDeg : 0.0; break;
           case Quantity::kSteerRate: x = valid ? s.steer_rate_meas_radps[i] * kRadToDeg : 0.0; break;
+          case Quantity::kSteerAngleMagnitude: x = valid ? std::fabs(s.steer_sw_meas_rad[i]) * kRadToDeg : 0.0; break;
+          case Quantity::kSteerAngleNegative: x = valid && s.steer_sw_meas_rad[i] < 0 ? 1 : 0; break;
+          case Quantity::kYawRateMagnitude: x = valid ? std::fabs(s.yaw_rate_meas_radps[i]) * kRadToDeg : 0.0; break;
+          case Quantity::kYawRateNegative: x = valid && s.yaw_rate_meas_radps[i] < 0 ? 1 : 0; break;
           case Quantity::kValid: x = valid ? 1 : 0; break;
           case Quantity::kLatAccel: x = valid ? s.a_y_meas_mps2[i] : 0.0; break;
           case Quantity::kLongAccel: x = valid ? s.a_x_meas_mps2[i] : 0.0; break;
@@ -192,7 +263,7 @@ void FrameEncoder::EncodeDriveImpl(const DriveResult& drive, void (*emit)(void*,
             break;
           case Quantity::kChecksum: checksum = &sig; continue;
         }
-        dbc::EncodeSignal(sig, x, payload);
+        dbc::EncodeSignal(sig, x * sp.scale, payload);
       }
       if (checksum) {  // XOR of bytes 0..6 (the checksum byte itself is 7)
         uint8_t c = 0;

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""The defaults docs/model-workflow.md states for `ndsid diagnose` are the binary's own.
+"""The defaults docs/model-workflow.md states for `ndsid diagnose`, and docs/new-car.md for
+`ndsid init`, are the binary's own.
 
 Reads each option's default from `ndsid diagnose --help` (CLI11 prints `--opt TYPE=VALUE`) and
 checks every "(default V)" the workflow page gives for that option, and that no sentence speaks
@@ -26,6 +27,18 @@ for opt, value in stated:
 for m in re.finditer(r"default (?:`--z-threshold`|threshold)[^0-9]{0,8}([0-9.]+)", doc):
     if float(m.group(1)) != float(defaults["--z-threshold"]):
         errors.append(f"docs: '{m.group(0)}' but the default --z-threshold is {defaults['--z-threshold']}")
+# docs/new-car.md: every "`--opt` (default V)" is `ndsid init --help`'s default.
+init_help = subprocess.run([exe, "init", "--help"], check=True, capture_output=True, text=True).stdout
+init_defaults = dict(re.findall(r"(--[a-z-]+) [A-Z]+(?::[^=\s]*(?: in \[[^\]]*\])?)?=(\S+)", init_help))
+init_stated = re.findall(r"`(--[a-z-]+)` \(default `?([^)` ]+)`?", (src / "docs" / "new-car.md").read_text())
+if len(init_stated) < 2:
+    errors.append(f"docs/new-car.md states {len(init_stated)} '`--opt` (default V)' for init, expected --out and --wheelbase")
+for opt, value in init_stated:
+    got = init_defaults.get(opt)
+    same = got is not None and (got == value or (re.fullmatch(r"[0-9.]+", value) and float(got) == float(value)))
+    if not same:
+        errors.append(f"docs/new-car.md says {opt} default {value}, `ndsid init --help` says {got}")
+stated += init_stated
 if errors:
     print("\n".join(errors))
     sys.exit(1)

@@ -13,6 +13,8 @@
 
 #include "ndsid/can/candump_reader.h"
 #include "ndsid/common/atomic_file.h"
+#include "ndsid/common/error.h"
+#include "ndsid/config/simulation_config.h"
 #include "ndsid/dbc/dbc_parser.h"
 #include "ndsid/dbc/decoder.h"
 
@@ -165,6 +167,58 @@ TEST_F(CandumpWriterTest, SameSeedWritesIdenticalBytes) {
   const std::string a = ReadWholeFile((dir / "a.log.gz").string()), b = ReadWholeFile((dir / "b.log.gz").string());
   EXPECT_GT(a.size(), 100000u);
   EXPECT_TRUE(a == b);
+}
+
+// bus.signals (docs/simulator.md, "Encoding into another DBC"): the mapped signals carry the
+// drive in their DBC unit (here mph and rad), a message without GenMsgCycleTime is sent at
+// signal_cycle_ms, every other signal is 0. Catches a mapping ignored or a unit not converted.
+TEST_F(CandumpWriterTest, BusSignalsMapQuantitiesOntoAnotherDbcInItsUnits) {
+  const std::string text =
+      "BO_ 100 MOTION: 8 X\n"
+      " SG_ Spd : 0|16@1+ (0.01,0) [0|600] \"mph\" X\n"
+      " SG_ Steer : 16|16@1- (0.001,0) [-32|32] \"rad\" X\n"
+      " SG_ Other : 32|16@1- (0.01,0) [-300|300] \"deg\" X\n";
+  const dbc::Database other = dbc::ParseDbcText(text, "other.dbc");
+  config::SimulationConfig cfg = config::ParseSimulationConfig(
+      "bus:\n  signals:\n    vehicle_speed: MOTION.Spd\n    steering_wheel_angle: MOTION.Steer\n", "bus.yaml");
+  cfg.duration.drives = 1;
+  cfg.seed = 4;
+  const SimulationResult sim = Simulate(cfg);
+  FrameEncoder encoder(other, cfg);
+  ASSERT_EQ(encoder.messages().size(), 1u);
+  EXPECT_DOUBLE_EQ(encoder.messages()[0].cycle_ms, 10.0);
+  const auto frames = encoder.EncodeDrive(sim.drives[0]);
+  const dbc::Decoder decoder(other);
+  std::vector<dbc::DecodedValue> out(decoder.max_signals_per_message());
+  const auto& s = sim.drives[0].series;
+  ASSERT_EQ(frames.size(), s.size());  // 100 Hz, one frame per sample
+  double max_speed_err = 0, max_steer_err = 0, max_other = 0;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    size_t n = 0;
+    decoder.Decode(frames[i], out, n);
+    ASSERT_EQ(n, 3u);
+    const double valid = s.valid[i] ? 1.0 : 0.0;
+    max_speed_err = std::max(max_speed_err, std::fabs(out[0].value - s.speed_meas_mps[i] / 0.44704));
+    max_steer_err = std::max(max_steer_err, std::fabs(out[1].value - valid * s.steer_sw_meas_rad[i]));
+    max_other = std::max(max_other, std::fabs(out[2].value));
+  }
+  EXPECT_LT(max_speed_err, 0.006);   // mph, quantisation 0.01
+  EXPECT_LT(max_steer_err, 0.0006);  // rad, quantisation 0.001
+  EXPECT_EQ(max_other, 0.0);
+}
+
+TEST_F(CandumpWriterTest, BusSignalMissingFromTheDbcIsAConfigError) {
+  config::SimulationConfig cfg =
+      config::ParseSimulationConfig("bus:\n  signals:\n    yaw_rate: ESP_DYNAMICS.NoSuchSignal\n", "bus.yaml");
+  try {
+    FrameEncoder encoder(db_, cfg);
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("bus.signals.yaw_rate: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("ESP_DYNAMICS.NoSuchSignal"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(config::ParseSimulationConfig("bus:\n  signals:\n    yaw_rate: NoDot\n", "bus.yaml"), ConfigError);
+  EXPECT_THROW(config::ParseSimulationConfig("bus:\n  signals:\n    yaw: A.B\n", "bus.yaml"), ConfigError);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -102,6 +103,22 @@ struct SimIntegration {
   double dynamic_above_mps = 3.0;    // pure single-track model above
 };
 
+// `bus:` encode the simulated quantities into another DBC's signals (an OEM or opendbc file),
+// docs/simulator.md. Empty `signals`: the example DBC's signal names decide (the default).
+struct SimBus {
+  // Messages without a GenMsgCycleTime are sent at this cycle [ms] (0: not sent) ...
+  double default_cycle_ms = 0;
+  // ... except those carrying a mapped signal, sent at this cycle [ms] (10..10000).
+  double signal_cycle_ms = 10;
+  // Quantity -> "MESSAGE.SIGNAL"; the quantities are listed in SimBusQuantities(). Each value is
+  // written in the signal's DBC unit when that is one of deg|rad, deg/s|rad/s, km/h|m/s|mph,
+  // m/s^2|g (else in the quantity's own unit: deg, deg/s, km/h, m/s^2). Every other signal of the
+  // DBC is sent as 0 (counters count, checksums XOR).
+  std::map<std::string, std::string> signals;
+};
+// The quantity names `bus.signals` accepts.
+const std::vector<std::string>& SimBusQuantities();
+
 struct SimulationConfig {
   uint64_t seed = 1;
   SimVehicle vehicle;
@@ -113,6 +130,7 @@ struct SimulationConfig {
   SimEffects effects;
   int64_t start_epoch_s = 1709537400;  // 2024-03-04 07:30:00 UTC, first drive's key-on
   std::string bus_name = "can0";
+  SimBus bus;
   std::string source_file;             // YAML it was loaded from ("" = defaults)
   std::string command_line;            // recorded in the truth file
 };

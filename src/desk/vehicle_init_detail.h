@@ -1,0 +1,118 @@
+// Private to `ndsid init` (vehicle_init.cc): the decoded bus, candidates by name, the 20 Hz grid.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "ndsid/can/frame_log.h"
+#include "ndsid/dbc/database.h"
+#include "vehicle_init.h"
+
+namespace ndsid::desk::init_detail {
+
+// Every value of one signal on the bus it was seen most on.
+struct SignalSeries {
+  const dbc::Message* message = nullptr;
+  const dbc::Signal* signal = nullptr;
+  uint16_t bus = 0;
+  std::vector<double> t;  // s since the first frame
+  std::vector<double> v;  // physical value (DBC factor and offset applied)
+  double period_s = 0;    // median spacing
+  double min = 0, max = 0;
+  bool varies = false;    // at least three distinct values
+};
+
+struct BusData {
+  std::vector<SignalSeries> signals;
+  std::vector<std::string> bus_names;
+  std::map<std::string, uint16_t> message_bus;  // message name -> bus index used
+  double t0 = 0, t1 = 0;                        // s, relative to the first frame (t0 = 0)
+  const std::string& BusOf(const std::string& message) const;
+  int Find(const std::string& message, const std::string& signal) const;  // -1 if absent
+};
+
+// Decodes the log (only `bus` if not empty) up to `max_frames` frames. Counts the frames read
+// into `frames`; `truncated` when it stopped at the limit.
+BusData CollectSignals(const dbc::Database& db, can::FrameLog& log, const std::string& bus, uint64_t max_frames,
+                       uint64_t& frames, bool& truncated);
+
+enum class RoleKind { kSteer, kSpeed, kLatAccel, kYawRate, kLongAccel, kWheelSpeed };
+
+// A role candidate: one signal, or several of one message combined.
+struct Source {
+  enum class Combine { kSingle, kSum, kDifference, kSignMagnitude };
+  std::vector<int> terms;  // indices into BusData::signals
+  Combine combine = Combine::kSingle;
+  std::string expression;  // MESSAGE.SIGNAL, or the role expression
+  std::string unit;        // DBC unit of the first term
+  std::string comment;     // DBC comment of the first term (and its message)
+  int name_score = 0;
+  std::string pair_evidence;  // why several signals were combined
+};
+
+// Varying signals named like `kind`, best names first, at most `top`; coarse+fine and
+// sign+magnitude pairs of one message are combined.
+std::vector<Source> Candidates(const BusData& data, RoleKind kind, size_t top);
+
+void SetSource(RoleProposal& p, const Source& s, const BusData& data);
+
+// Sample-and-hold onto a fixed grid; NaN where the last value is stale (older than
+// max(0.5 s, 5 periods)) or absent; then a centred 1 s moving average (NaN if any value in it is).
+class Grid {
+ public:
+  Grid(const BusData& data, double rate_hz);
+  const std::vector<double>& Of(const Source& s);
+  size_t size() const { return n_; }
+
+ private:
+  const std::vector<double>& OfSignal(int index);
+  const BusData& data_;
+  double rate_hz_;
+  size_t n_;
+  std::unordered_map<int, std::vector<double>> signals_;
+  std::map<std::string, std::vector<double>> sources_;
+};
+
+struct UnitOption {
+  const char* name;  // as the config writes it
+  double to_si;
+  std::vector<std::string> aliases;  // lower-case DBC spellings
+};
+const std::vector<UnitOption>& SpeedUnits();
+const std::vector<UnitOption>& YawUnits();
+const std::vector<UnitOption>& AccelUnits();
+const std::vector<UnitOption>& SteerUnits();
+int MatchUnit(const std::vector<UnitOption>& options, const std::string& dbc_unit);  // -1 unknown
+
+inline constexpr double kGrid_hz = 20.0;
+inline constexpr double kCharSpeed_mps = 20.0;  // v_ch assumed in the steering fits (EG ~ 2..4 deg/g)
+
+struct Fit {
+  double gain = 0, intercept = 0, corr = 0, gain_se = 0;
+  size_t n = 0;
+};
+// Least squares y = gain x + intercept over the pairs where both are finite (n < 20: no fit).
+Fit LinearFit(const std::vector<double>& x, const std::vector<double>& y);
+double Percentile(std::vector<double> v, double q);  // NaN-free quantile, NaN if none
+std::vector<double> Abs(std::vector<double> v);
+// 0.9 on the option the DBC's unit string names (the rest share 0.1), else uniform.
+std::vector<double> UnitPrior(const std::vector<UnitOption>& options, const std::string& dbc_unit);
+inline double Gauss(double z) { return std::exp(-0.5 * z * z); }
+std::string Pct(double p);
+
+// The fallback for a bus without a yaw rate: a_y = v^2 d_sw / (is l (1 + v^2/v_ch^2)) picks
+// (speed, a_y, steering) and their units from a plausible steer ratio; the absolute sign from
+// the steering's comment or assumed. Fills those three roles of `result` (indexed by Role) and
+// returns the speed in m/s on the grid, or an empty vector when nothing fits.
+std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const std::vector<Source>& speed,
+                                          const std::vector<Source>& lat, const std::vector<Source>& steer,
+                                          const InitOptions& options, InitResult& result);
+
+// +1 when a DBC comment says positive to the left (counter-clockwise), -1 to the right, else 0.
+int CommentDirection(const std::string& comment);
+
+}  // namespace ndsid::desk::init_detail

@@ -1,0 +1,224 @@
+// `ndsid init`'s 20 Hz grid and fits (vehicle_init_detail.h), and the fallback for a bus without a yaw rate.
+#include <spdlog/fmt/fmt.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "vehicle_init_detail.h"
+
+namespace ndsid::desk::init_detail {
+
+using config::Role;
+
+// Least squares y = gain x + intercept over the pairs where both are finite.
+Fit LinearFit(const std::vector<double>& x, const std::vector<double>& y) {
+  double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
+    sx += x[i], sy += y[i], sxx += x[i] * x[i], syy += y[i] * y[i], sxy += x[i] * y[i];
+    ++n;
+  }
+  Fit f;
+  f.n = n;
+  if (n < 20) return f;
+  const double dn = static_cast<double>(n);
+  const double vx = sxx - sx * sx / dn, vy = syy - sy * sy / dn, cxy = sxy - sx * sy / dn;
+  if (vx <= 0 || vy <= 0) return f;
+  f.gain = cxy / vx;
+  f.intercept = (sy - f.gain * sx) / dn;
+  f.corr = cxy / std::sqrt(vx * vy);
+  const double resid_var = std::max(0.0, (vy - f.gain * cxy) / std::max(1.0, dn - 2));
+  // Samples at 20 Hz are correlated over ~1 s: count 1 in 20 as independent.
+  f.gain_se = std::sqrt(resid_var / vx) * std::sqrt(20.0);
+  return f;
+}
+
+double Percentile(std::vector<double> v, double q) {
+  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
+  if (v.empty()) return NAN;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1)));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+std::vector<double> Abs(std::vector<double> v) {
+  for (double& x : v) x = std::fabs(x);
+  return v;
+}
+
+// Unit options of one role and a prior from the DBC's unit string.
+std::vector<double> UnitPrior(const std::vector<UnitOption>& options, const std::string& dbc_unit) {
+  const int known = MatchUnit(options, dbc_unit);
+  std::vector<double> prior(options.size(), 1.0 / static_cast<double>(options.size()));
+  if (known >= 0) {
+    for (size_t i = 0; i < options.size(); ++i)
+      prior[i] = static_cast<int>(i) == known ? 0.9 : 0.1 / static_cast<double>(options.size() - 1);
+  }
+  return prior;
+}
+
+
+std::string Pct(double p) { return fmt::format("{:.0f} %", 100.0 * p); }
+
+Grid::Grid(const BusData& data, double rate_hz)
+    : data_(data), rate_hz_(rate_hz), n_(static_cast<size_t>(std::max(0.0, (data.t1 - data.t0) * rate_hz)) + 1) {}
+
+const std::vector<double>& Grid::OfSignal(int index) {
+  auto it = signals_.find(index);
+  if (it != signals_.end()) return it->second;
+  const SignalSeries& s = data_.signals[static_cast<size_t>(index)];
+  std::vector<double> g(n_, NAN);
+  const double max_age = std::max(0.5, 5.0 * s.period_s);
+  size_t k = 0;
+  for (size_t i = 0; i < n_; ++i) {
+    const double t = data_.t0 + static_cast<double>(i) / rate_hz_;
+    while (k < s.t.size() && s.t[k] <= t) ++k;
+    if (k > 0 && t - s.t[k - 1] <= max_age) g[i] = s.v[k - 1];
+  }
+  // Centred moving average over ~1 s: the relations init tests are quasi-static, the sensor
+  // noise and quantisation are not (on the real RAV4 segment corr(a_y, v r) goes -0.35 -> -0.81).
+  const size_t w = std::max<size_t>(1, static_cast<size_t>(std::lround(rate_hz_)));
+  if (w > 1 && n_ > w) {
+    std::vector<double> sm(n_, NAN);
+    double sum = 0;
+    size_t bad = 0;
+    for (size_t i = 0; i < n_; ++i) {
+      if (std::isfinite(g[i])) sum += g[i];
+      else ++bad;
+      if (i >= w) {
+        if (std::isfinite(g[i - w])) sum -= g[i - w];
+        else --bad;
+      }
+      if (i + 1 >= w && bad == 0) sm[i + 1 - w + w / 2] = sum / static_cast<double>(w);
+    }
+    g.swap(sm);
+  }
+  return signals_.emplace(index, std::move(g)).first->second;
+}
+
+const std::vector<double>& Grid::Of(const Source& s) {
+  if (s.terms.size() == 1) return OfSignal(s.terms[0]);
+  auto it = sources_.find(s.expression);
+  if (it != sources_.end()) return it->second;
+  std::vector<double> g = OfSignal(s.terms[0]);
+  const std::vector<double>& b = OfSignal(s.terms[1]);
+  for (size_t i = 0; i < g.size(); ++i) {
+    switch (s.combine) {
+      case Source::Combine::kSum: g[i] += b[i]; break;
+      case Source::Combine::kDifference: g[i] -= b[i]; break;
+      case Source::Combine::kSignMagnitude: g[i] *= 1.0 - 2.0 * b[i]; break;
+      case Source::Combine::kSingle: break;
+    }
+  }
+  return sources_.emplace(s.expression, std::move(g)).first->second;
+}
+
+std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const std::vector<Source>& speed,
+                                          const std::vector<Source>& lat, const std::vector<Source>& steer,
+                                          const InitOptions& options, InitResult& result) {
+  auto role = [&](Role r) -> RoleProposal& { return result.roles[static_cast<size_t>(r)]; };
+  const auto& su = SpeedUnits();
+  const auto& du = SteerUnits();
+  const auto& au = AccelUnits();
+  constexpr double kVch2 = kCharSpeed_mps * kCharSpeed_mps;
+  // x = v^2 d / (1 + v^2/v_ch^2) with v in the unit `vu`, above 4 m/s.
+  auto regressor = [&](const Source& v, size_t vu, const Source& d) {
+    const auto& vg = grid.Of(v);
+    const auto& dg = grid.Of(d);
+    std::vector<double> x(vg.size(), NAN);
+    for (size_t i = 0; i < vg.size(); ++i) {
+      const double vs = vg[i] * su[vu].to_si;
+      if (vs > 4.0 && vs < 75.0) x[i] = vs * vs * dg[i] / (1.0 + vs * vs / kVch2);
+    }
+    return x;
+  };
+  struct Best {
+    const Source *v = nullptr, *a = nullptr, *d = nullptr;
+    Fit fit;
+    double score = -1;
+  } best;
+  for (const auto& v : speed) {
+    const int known = MatchUnit(su, v.unit);
+    const size_t vu = known >= 0 ? static_cast<size_t>(known) : 0;
+    for (const auto& d : steer) {
+      const std::vector<double> x = regressor(v, vu, d);
+      for (const auto& a : lat) {
+        const Fit f = LinearFit(x, grid.Of(a));
+        const double score = std::fabs(f.corr) + 0.01 * (v.name_score + a.name_score + d.name_score);
+        if (f.n >= 100 && score > best.score) best = {&v, &a, &d, f, score};
+      }
+    }
+  }
+  if (best.v == nullptr || std::fabs(best.fit.corr) < 0.5) {
+    if (best.v != nullptr)
+      role(Role::kSteeringWheelAngle).reason = fmt::format(
+          "no yaw rate, and the best (speed, a_y, steering) candidates ({}, {}, {}) do not follow a_y = v^2 d_sw / (is l (1 + "
+          "v^2/v_ch^2)) (corr {:+.2f} < 0.5)",
+          best.v->expression, best.a->expression, best.d->expression, best.fit.corr);
+    return {};
+  }
+  // Units: a_y,raw = k x with k = f_d / (f_a is l); the steer ratio must be plausible (10..25).
+  const double l = options.reference_wheelbase_m;
+  const auto pv = UnitPrior(su, best.v->unit), pd = UnitPrior(du, best.d->unit), pa = UnitPrior(au, best.a->unit);
+  const double v99 = Percentile(Abs(grid.Of(*best.v)), 0.99);
+  const double a99 = Percentile(Abs(grid.Of(*best.a)), 0.99);
+  double total = 0, top = -1, top_is = 0;
+  size_t bv = 0, bd = 0, ba = 0;
+  Fit bfit;
+  std::vector<double> marg_v(su.size()), marg_d(du.size()), marg_a(au.size());
+  for (size_t i = 0; i < su.size(); ++i) {
+    const Fit f = LinearFit(regressor(*best.v, i, *best.d), grid.Of(*best.a));
+    if (f.n < 100 || f.gain == 0) continue;
+    for (size_t j = 0; j < du.size(); ++j)
+      for (size_t m = 0; m < au.size(); ++m) {
+        const double is = du[j].to_si / (au[m].to_si * std::fabs(f.gain) * l);
+        const double dist = std::max({0.0, std::log(10.0 / is), std::log(is / 25.0)});
+        double w = pv[i] * pd[j] * pa[m] * Gauss(dist / 0.25);
+        if (v99 * su[i].to_si > 75.0 || v99 * su[i].to_si < 1.0) w *= 0.05;
+        if (a99 * au[m].to_si > 15.0) w *= 0.05;
+        if (!std::isfinite(w)) w = 0;
+        total += w;
+        marg_v[i] += w, marg_d[j] += w, marg_a[m] += w;
+        if (w > top) top = w, bv = i, bd = j, ba = m, bfit = f, top_is = is;
+      }
+  }
+  if (!(total > 0)) return {};
+  int dir = CommentDirection(best.d->comment);
+  const int rel = bfit.gain > 0 ? 1 : -1;
+  if (dir != 0) {
+    result.notes.push_back(fmt::format("no yaw rate: ISO 8855 sign (steering positive to the left) taken from the comment of {} "
+                                       "(confidence 90 %)",
+                                       best.d->expression));
+  } else {
+    dir = 1;
+    result.notes.push_back(
+        "no yaw rate: ISO 8855 sign ASSUMED: the bus's steering angle is positive to the left (counter-clockwise); the DBC "
+        "does not say. Check once in a left turn: steering and a_y must come out positive, else flip both signs "
+        "(confidence 70 %)");
+  }
+  // Without a yaw rate there is no second relation to cross-check: confidence at most 60 %.
+  const double cap = 0.6;
+  auto fill = [&](Role r, const Source& s, const std::string& unit, double p_unit, int sign) {
+    RoleProposal& p = role(r);
+    p.found = true;
+    SetSource(p, s, data);
+    p.unit = unit;
+    p.sign = sign;
+    p.confidence = std::min({cap, p_unit, std::fabs(bfit.corr)});
+    p.evidence.push_back(fmt::format(
+        "no yaw rate: a_y = k v^2 d_sw / (1 + v^2/v_ch^2), v_ch = {:.0f} m/s, {} samples: corr {:+.3f}, k = {:.5g} ± {:.2g}; "
+        "steer ratio {:.1f} with l = {:.2f} m for {} / {} / {} (posterior {})",
+        kCharSpeed_mps, bfit.n, bfit.corr, bfit.gain, bfit.gain_se, top_is, l, su[bv].name, du[bd].name, au[ba].name,
+        Pct(top / total)));
+  };
+  fill(Role::kSpeed, *best.v, su[bv].name, marg_v[bv] / total, 1);
+  fill(Role::kSteeringWheelAngle, *best.d, du[bd].name, marg_d[bd] / total, dir);
+  fill(Role::kLateralAcceleration, *best.a, au[ba].name, marg_a[ba] / total, dir * rel);
+  if (!best.d->pair_evidence.empty()) role(Role::kSteeringWheelAngle).evidence.push_back(best.d->pair_evidence);
+  std::vector<double> v_si = grid.Of(*best.v);
+  for (double& x : v_si) x *= su[bv].to_si;
+  return v_si;
+}
+
+}  // namespace ndsid::desk::init_detail

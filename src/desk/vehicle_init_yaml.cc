@@ -1,0 +1,108 @@
+// `ndsid init`'s outputs: the commented vehicle YAML and the console summary.
+#include <spdlog/fmt/fmt.h>
+
+#include <sstream>
+
+#include "vehicle_init.h"
+
+namespace ndsid::desk {
+
+using config::Role;
+
+namespace {
+
+const char* RoleTitle(Role r) {
+  switch (r) {
+    case Role::kSteeringWheelAngle: return "steering-wheel angle";
+    case Role::kSpeed: return "vehicle speed";
+    case Role::kLateralAcceleration: return "lateral acceleration";
+    case Role::kYawRate: return "yaw rate";
+    case Role::kLongitudinalAcceleration: return "longitudinal acceleration";
+    default: return "";
+  }
+}
+
+const char* Sureness(double c) { return c >= 0.9 ? "high" : c >= 0.7 ? "medium" : "low"; }
+
+std::string Quoted(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string Number(double x) { return fmt::format("{:g}", x); }
+
+}  // namespace
+
+std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in) {
+  std::ostringstream y;
+  y << "# Vehicle configuration proposed by `ndsid init` from the DBC and a recorded log\n"
+    << "# (" << in.command_line << ").\n"
+    << "# The roles below were confirmed from the data by physics (a_y = v r, r = v d_sw / (is l (1 + v^2/v_ch^2)));\n"
+    << "# the evidence and confidence are in the comment above each. Check every line marked CHECK, then\n"
+    << "# replay: `ndsid replay --config <this file>`. Every key: docs/configuration.md; how init decides: docs/new-car.md.\n";
+  for (const auto& n : result.notes) y << "# " << n << "\n";
+  y << "\nvehicle:\n"
+    << "  name: " << in.vehicle_name << "          # keys the learned state\n"
+    << "  wheelbase_m: 2.7          # CHECK: l from the data sheet [m] (placeholder)\n"
+    << "  mass_kg: 1500             # CHECK: data sheet (curb + driver) [kg] (placeholder)\n"
+    << "\nsource:\n"
+    << "  type: log\n"
+    << "  logs: [" << Quoted(in.log_path) << "]\n"
+    << "  bus: " << Quoted(result.bus) << (result.bus.empty() ? "                   # all buses\n" : "              # the bus the roles were found on\n")
+    << "\ndbc: " << Quoted(in.dbc_path) << "\n"
+    << "\n# Signal roles: the unit on the bus and the sign that makes the value ISO 8855 (x forward, y left,\n"
+    << "# z up; steering, yaw rate, a_y positive to the left). Timeouts: 10 measured message periods, >= 0.1 s.\n"
+    << "signals:\n";
+  for (const auto& p : result.roles) {
+    const std::string key = config::RoleKey(p.role);
+    if (!p.found) {
+      y << "  # " << key << ": not found: " << p.reason << "\n";
+      continue;
+    }
+    y << "  # " << RoleTitle(p.role) << ": confidence " << fmt::format("{:.0f} %", 100 * p.confidence) << " ("
+      << Sureness(p.confidence) << ")" << (p.confidence < 0.7 ? " CHECK" : "") << "; message period "
+      << fmt::format("{:.0f} ms", 1000 * p.period_s) << "\n";
+    for (const auto& e : p.evidence) y << "  #   " << e << "\n";
+    y << "  " << key << ": {";
+    if (p.multi_signal) y << "expr: " << Quoted(p.expression);
+    else y << "message: " << p.message << ", signal: " << p.signal;
+    y << ", unit: " << p.unit;
+    if (p.role != Role::kSpeed || p.sign != 1) y << ", sign: " << p.sign;
+    y << ", timeout_s: " << Number(p.timeout_s) << "}\n";
+  }
+  y << "\ngate:\n"
+    << "  min_drive_km: 2.0           # drives shorter than this are not used (the study's rule) [km]\n"
+    << "\n# identification: the parameter box is left at its defaults (docs/configuration.md); set\n"
+    << "# vehicle.wheelbase_m and vehicle.mass_kg above from the data sheet, and narrow the box\n"
+    << "# (identification.parameters) when the car is far from a C-Max-class car.\n"
+    << "\nstate_dir: out/state          # learned state (systemd: /var/lib/ndsid)\n"
+    << "report_dir: out/report        # reports of the ndsid commands (relative to this file)\n";
+  return y.str();
+}
+
+std::string InitSummary(const InitResult& result) {
+  std::ostringstream o;
+  o << fmt::format("read {} frames, {:.1f} s of log, {:.1f} s above 5 m/s{}\n", result.frames, result.log_duration_s,
+                   result.moving_s, result.bus.empty() ? "" : ", roles on bus " + result.bus);
+  if (result.truncated) o << "  (stopped at the frame limit: the rest of the log was not read; --max-frames)\n";
+  for (const auto& p : result.roles) {
+    const bool mandatory = config::RoleIsRequired(p.role);
+    if (!p.found) {
+      o << fmt::format("{:<26} NOT FOUND{}: {}\n", config::RoleKey(p.role), mandatory ? " (required)" : "", p.reason);
+      continue;
+    }
+    o << fmt::format("{:<26} {}  unit {}  sign {:+d}  timeout {:g} s  confidence {:.0f} % ({})\n", config::RoleKey(p.role),
+                     p.expression, p.unit, p.sign, p.timeout_s, 100 * p.confidence, Sureness(p.confidence));
+    for (const auto& e : p.evidence) o << "    " << e << "\n";
+  }
+  for (const auto& n : result.notes) o << "note: " << n << "\n";
+  o << (result.MandatoryFound() ? "required roles (steering, speed, a_y): found\n"
+                                : "required roles (steering, speed, a_y): NOT all found; the config has them commented out\n");
+  return o.str();
+}
+
+}  // namespace ndsid::desk
