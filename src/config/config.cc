@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -62,10 +63,47 @@ constexpr double kMaxParameterBound = 1e9;      // m, Jz, cv, ch, lv, is box
 
 SignalRef ReadRef(const YamlReader& r) { return {r.String("message"), r.String("signal")}; }
 
+// A role expression: its MESSAGE.SIGNAL names become the inputs, in order of appearance.
+void ReadRoleExpression(const YamlReader& r, RoleSignal& s) {
+  s.expr = r.String("expr");
+  if (r.Has("message") || r.Has("signal")) r.Fail("expr", "give either expr or message + signal, not both");
+  std::vector<std::string> names;
+  const std::string& t = s.expr;
+  for (size_t i = 0; i < t.size();) {
+    const auto word = [&](size_t k) { return std::isalnum(static_cast<unsigned char>(t[k])) || t[k] == '_'; };
+    if (!(std::isalpha(static_cast<unsigned char>(t[i])) || t[i] == '_') || (i > 0 && (word(i - 1) || t[i - 1] == '.'))) {
+      ++i;
+      continue;
+    }
+    size_t j = i;
+    while (j < t.size() && (word(j) || (t[j] == '.' && j + 1 < t.size() && (std::isalpha(static_cast<unsigned char>(t[j + 1])) || t[j + 1] == '_'))))
+      ++j;
+    const std::string name = t.substr(i, j - i);
+    const size_t dot = name.find('.');
+    if (dot != std::string::npos && std::find(names.begin(), names.end(), name) == names.end()) {
+      if (name.find('.', dot + 1) != std::string::npos) r.Fail("expr", "'" + name + "': a signal is MESSAGE.SIGNAL (one '.')");
+      names.push_back(name);
+      s.inputs.push_back({name.substr(0, dot), name.substr(dot + 1)});
+    }
+    i = j;
+  }
+  if (s.inputs.empty()) r.Fail("expr", "'" + s.expr + "' names no signal (write MESSAGE.SIGNAL)");
+  try {
+    s.expression = std::make_shared<const Expression>(Expression::Parse(s.expr, names));
+  } catch (const ConfigError& e) {
+    r.Fail("expr", e.what());
+  }
+  s.ref = s.inputs.front();
+}
+
 RoleSignal ReadRole(const YamlReader& parent, Role role) {
   const YamlReader r = parent.Child(RoleKey(role));
   RoleSignal s;
-  s.ref = ReadRef(r);
+  if (r.Has("expr")) {
+    ReadRoleExpression(r, s);
+  } else {
+    s.ref = ReadRef(r);
+  }
   s.line = parent.Line(RoleKey(role));
   if (RoleIsFlag(role)) {
     s.active_values = r.Numbers("active_values", {1.0});
@@ -436,15 +474,28 @@ void ValidateAgainstDbc(const Config& c, const dbc::Database& db) {
   auto check = [&](const SignalRef& ref, int line, const std::string& what) {
     const dbc::Message* m = db.FindMessage(ref.message);
     if (!m) {
-      throw ConfigError(FormatLocation(c.path, line, 0, what + ": message '" + ref.message + "' not in DBC " + db.file));
+      std::vector<std::string> names;
+      for (const auto& msg : db.messages) names.push_back(msg.name);
+      const std::string best = ClosestMatch(ref.message, names);
+      throw ConfigError(FormatLocation(c.path, line, 0, what + ": message '" + ref.message + "' not in DBC " + db.file +
+                                                            (best.empty() ? "" : "; did you mean '" + best + "'?")));
     }
     if (!m->FindSignal(ref.signal)) {
+      std::vector<std::string> names;
+      for (const auto& sig : m->signals) names.push_back(sig.name);
       throw ConfigError(FormatLocation(c.path, line, 0,
-                                       what + ": signal '" + ref.signal + "' not in message '" + ref.message + "' of DBC " + db.file));
+                                       what + ": signal '" + ref.signal + "' not in message '" + ref.message + "' of DBC " +
+                                           db.file + AcceptedValuesHint(ref.signal, names)));
     }
   };
   for (int i = 0; i < kNumRoles; ++i) {
-    if (c.roles[i]) check(c.roles[i]->ref, c.roles[i]->line, std::string("signals.") + RoleKey(static_cast<Role>(i)));
+    if (!c.roles[i]) continue;
+    const std::string what = std::string("signals.") + RoleKey(static_cast<Role>(i));
+    if (c.roles[i]->expression) {
+      for (const SignalRef& in : c.roles[i]->inputs) check(in, c.roles[i]->line, what + ".expr");
+    } else {
+      check(c.roles[i]->ref, c.roles[i]->line, what);
+    }
   }
   for (const auto& v : c.validity) check(v.ref, v.line, "signals.validity");
 }

@@ -8,7 +8,7 @@
 #include "ndsid/config/config.h"
 #include "ndsid/model/effect.h"
 #include "ndsid/model/effect_library.h"
-#include "ndsid/model/expression.h"
+#include "ndsid/common/expression.h"
 
 namespace ndsid::model {
 namespace {

@@ -3,7 +3,7 @@
 #include <cmath>
 
 #include "ndsid/config/config.h"
-#include "ndsid/model/expression.h"
+#include "ndsid/common/expression.h"
 #include "ndsid/model/model_spec.h"
 #include "ndsid/model/simulate.h"
 

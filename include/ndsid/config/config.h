@@ -7,11 +7,13 @@
 #include <array>
 #include <string>
 #include <vector>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "ndsid/common/error.h"
+#include "ndsid/common/expression.h"
 
 namespace ndsid::config {
 
@@ -37,7 +39,13 @@ struct SignalRef {
 };
 
 struct RoleSignal {
-  SignalRef ref;
+  SignalRef ref;          // the signal; for a role expression its first input
+  // A role computed from several signals (docs/configuration.md, "Role expressions"): the text,
+  // its inputs in the order of the expression's variables, and the parsed expression, evaluated
+  // on the inputs' physical values before unit and sign. Empty for a single-signal role.
+  std::string expr;
+  std::vector<SignalRef> inputs;
+  std::shared_ptr<const Expression> expression;
   std::string unit;       // unit on the bus: deg|rad, km/h|m/s|mph, m/s^2|g, deg/s|rad/s, "" for flags
   double scale_to_si = 1; // sign * unit conversion, so value_si = raw_physical * scale_to_si
   double timeout_s = 0.1; // a value older than this is stale

@@ -44,11 +44,22 @@ class RoleExtractor {
   struct Target {
     int role = -1;      // config::Role, or -1
     int validity = -1;  // index into config.validity, or -1
+    int input = -1;     // >= 0: input `input` of role `role`'s expression
+    bool clock = false; // this input's message is the expression's time base (its first input's)
   };
+  // The latest value of each input of an expression role, and when it came.
+  struct ExprInput {
+    double value = 0;
+    int64_t t_ns = 0;
+    bool seen = false;
+  };
+  void EvaluateExpression(int role, int64_t t_ns, SignalSync& sync) noexcept;
   const config::Config& config_;
   dbc::Decoder decoder_;
   std::vector<std::vector<Target>> targets_;  // per decoder signal index
   std::vector<dbc::DecodedValue> scratch_;
+  std::vector<std::vector<ExprInput>> expr_inputs_;  // per role (empty for single-signal roles)
+  std::vector<double> expr_values_;                  // scratch: the inputs in expression order
   int wanted_bus_ = -2;  // -2 unresolved, -1 all, else index
   ExtractCounters counters_;
 };

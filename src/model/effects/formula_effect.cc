@@ -5,7 +5,7 @@
 //   beta_dot / r_dot: a term added to beta' / r', over beta, r, v, d_sw, delta and the parameters
 
 #include "builtin_effects.h"
-#include "ndsid/model/expression.h"
+#include "ndsid/common/expression.h"
 
 namespace ndsid::model {
 namespace {

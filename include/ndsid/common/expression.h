@@ -1,7 +1,11 @@
-// Arithmetic expressions for user-stated hypotheses ("a_y + k3*a_y^3"), parsed once at load
-// time and evaluated on double or autodiff Jets, so a formula effect is differentiated like a
-// built-in one. Grammar: numbers, names, + - * / ^ (right-associative), unary -, parentheses,
-// and sin cos tan tanh exp log sqrt abs of one argument.
+// Arithmetic expressions, parsed once at load time: the formula effects' hypotheses
+// ("a_y + k3*a_y^3", evaluated on double or autodiff Jets, so a formula effect is differentiated
+// like a built-in one) and the signal roles computed from several CAN signals
+// ("STEER_ANGLE_SENSOR.STEER_ANGLE + STEER_ANGLE_SENSOR.STEER_FRACTION").
+// Grammar: numbers, names (letters, digits, '_', and '.' inside: MESSAGE.SIGNAL), + - * /,
+// ^ (right-associative), unary -, parentheses; comparisons == != < > <= >= (1 or 0, lowest
+// precedence, not chained); sin cos tan tanh exp log sqrt abs sgn of one argument;
+// select(condition, a, b) = a where condition != 0, else b.
 #pragma once
 
 #include <cmath>
@@ -11,14 +15,14 @@
 
 #include "ndsid/common/error.h"
 
-namespace ndsid::model {
+namespace ndsid {
 
 struct ExprNode {
-  enum class Kind { kNumber, kVariable, kAdd, kSub, kMul, kDiv, kPow, kNeg, kCall } kind;
+  enum class Kind { kNumber, kVariable, kAdd, kSub, kMul, kDiv, kPow, kNeg, kCall, kCompare, kSelect } kind;
   double number = 0;
   int variable = -1;     // index into the variable names given to ParseExpression
-  std::string function;  // kCall
-  std::unique_ptr<ExprNode> a, b;
+  std::string function;  // kCall: the function; kCompare: the operator ("==", "<", ...)
+  std::unique_ptr<ExprNode> a, b, c;  // c: kSelect's else-branch
   int depth = 1;  // levels of this subtree (Evaluate recurses this deep)
 };
 
@@ -75,8 +79,17 @@ class Expression {
         if (f == "exp") return exp(x);
         if (f == "log") return log(x);
         if (f == "sqrt") return sqrt(x);
+        if (f == "sgn") return x > T(0.0) ? T(1.0) : (x < T(0.0) ? T(-1.0) : T(0.0));
         return abs(x);
       }
+      case ExprNode::Kind::kCompare: {
+        const T x = Eval(*n.a, v), y = Eval(*n.b, v);
+        const std::string& op = n.function;
+        const bool r = op == "==" ? x == y : op == "!=" ? x != y : op == "<" ? x < y : op == ">" ? x > y : op == "<=" ? x <= y : x >= y;
+        return T(r ? 1.0 : 0.0);
+      }
+      case ExprNode::Kind::kSelect:
+        return Eval(*n.a, v) != T(0.0) ? Eval(*n.b, v) : Eval(*n.c, v);
     }
     return T(0.0);
   }
@@ -85,4 +98,4 @@ class Expression {
   std::shared_ptr<const ExprNode> root_;
 };
 
-}  // namespace ndsid::model
+}  // namespace ndsid

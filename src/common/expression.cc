@@ -1,11 +1,12 @@
-#include "ndsid/model/expression.h"
+#include "ndsid/common/expression.h"
 
 #include <algorithm>
 #include <cctype>
 #include <cstdlib>
 #include <functional>
+#include <string>
 
-namespace ndsid::model {
+namespace ndsid {
 namespace {
 
 class Parser {
@@ -16,7 +17,7 @@ class Parser {
     if (s_.size() > Expression::kMaxChars) {
       Fail(std::to_string(s_.size()) + " characters, more than the limit of " + std::to_string(Expression::kMaxChars));
     }
-    auto n = Sum();
+    auto n = Compare();
     Skip();
     if (pos_ < s_.size()) Fail("unexpected '" + std::string(1, s_[pos_]) + "'");
     return n;
@@ -66,6 +67,21 @@ class Parser {
     if (n->depth > Expression::kMaxDepth) FailDepth();  // evaluation would recurse this deep
     return n;
   }
+  // Lowest precedence, not chained: "a < b" (1 or 0).
+  std::unique_ptr<ExprNode> Compare() {
+    auto n = Sum();
+    Skip();
+    for (const char* op : {"==", "!=", "<=", ">=", "<", ">"}) {
+      const size_t len = std::char_traits<char>::length(op);
+      if (s_.compare(pos_, len, op) == 0) {
+        pos_ += len;
+        auto r = Make(ExprNode::Kind::kCompare, std::move(n), Sum());
+        r->function = op;
+        return r;
+      }
+    }
+    return n;
+  }
   std::unique_ptr<ExprNode> Sum() {
     auto n = Product();
     for (;;) {
@@ -107,7 +123,7 @@ class Parser {
     const char c = s_[pos_];
     if (Eat('(')) {
       const Nest nest(*this);
-      auto n = Sum();
+      auto n = Compare();
       if (!Eat(')')) Fail("expected ')'");
       return n;
     }
@@ -124,18 +140,38 @@ class Parser {
     }
     if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
       const size_t start = pos_;
-      while (pos_ < s_.size() && (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_')) ++pos_;
+      // A name; a '.' inside joins MESSAGE.SIGNAL (followed by a letter or '_').
+      while (pos_ < s_.size() &&
+             (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_' ||
+              (s_[pos_] == '.' && pos_ + 1 < s_.size() &&
+               (std::isalpha(static_cast<unsigned char>(s_[pos_ + 1])) || s_[pos_ + 1] == '_'))))
+        ++pos_;
       const std::string name = s_.substr(start, pos_ - start);
       if (Eat('(')) {
-        static const char* kFunctions[] = {"sin", "cos", "tan", "tanh", "exp", "log", "sqrt", "abs"};
+        if (name == "select") {  // select(condition, a, b)
+          const Nest nest(*this);
+          auto cond = Compare();
+          if (!Eat(',')) Fail("select needs 3 arguments: select(condition, a, b)");
+          auto then = Compare();
+          if (!Eat(',')) Fail("select needs 3 arguments: select(condition, a, b)");
+          auto otherwise = Compare();
+          if (!Eat(')')) Fail("expected ')' after the 3 arguments of select");
+          const int depth = 1 + std::max({cond->depth, then->depth, otherwise->depth});
+          auto n = Make(ExprNode::Kind::kSelect, std::move(cond), std::move(then));
+          n->depth = std::max(n->depth, depth);
+          if (n->depth > Expression::kMaxDepth) FailDepth();
+          n->c = std::move(otherwise);
+          return n;
+        }
+        static const char* kFunctions[] = {"sin", "cos", "tan", "tanh", "exp", "log", "sqrt", "abs", "sgn"};
         bool known = false;
         for (const char* f : kFunctions) known = known || name == f;
         if (!known) {
           pos_ = start;
-          Fail("unknown function '" + name + "' (known: sin cos tan tanh exp log sqrt abs)");
+          Fail("unknown function '" + name + "' (known: sin cos tan tanh exp log sqrt abs sgn select)");
         }
         const Nest nest(*this);
-        auto n = Make(ExprNode::Kind::kCall, Sum(), nullptr);
+        auto n = Make(ExprNode::Kind::kCall, Compare(), nullptr);
         n->function = name;
         if (!Eat(')')) Fail("expected ')' after the argument of " + name);
         return n;
@@ -164,7 +200,7 @@ class Parser {
 
 bool UsesVariable(const ExprNode& n, int v) {
   if (n.kind == ExprNode::Kind::kVariable) return n.variable == v;
-  return (n.a && UsesVariable(*n.a, v)) || (n.b && UsesVariable(*n.b, v));
+  return (n.a && UsesVariable(*n.a, v)) || (n.b && UsesVariable(*n.b, v)) || (n.c && UsesVariable(*n.c, v));
 }
 
 }  // namespace
@@ -178,4 +214,4 @@ Expression Expression::Parse(const std::string& text, const std::vector<std::str
 
 bool Expression::Uses(int variable) const { return UsesVariable(*root_, variable); }
 
-}  // namespace ndsid::model
+}  // namespace ndsid
