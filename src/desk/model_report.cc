@@ -111,8 +111,9 @@ FittedModel FitModel(const ReplayedData& data, const std::string& label, const s
     m.fit = last->fit;  // the pipeline just fitted this very model on this window
     return m;
   }
-  const identify::Identifier id(data.config.identification, data.config.vehicle.wheelbase_m,
-                                model::ModelSpec::FromNames(effects, data.pipeline->library()));
+  identify::Identifier id(data.config.identification, data.config.vehicle.wheelbase_m,
+                          model::ModelSpec::FromNames(effects, data.pipeline->library()));
+  id.set_standstill(data.window.standstill);
   std::optional<model::Params<double>> warm;
   const auto& ss = data.window.steady_state;
   if (ss.valid) warm = id.WarmStart(ss.steer_ratio, ss.eg_rad_per_mps2);

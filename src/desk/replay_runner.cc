@@ -124,6 +124,10 @@ nlohmann::json EstimateJson(const config::Config& config, const pipeline::Estima
                    {"hours_under_tolerance", e.adequacy.hours_under_tolerance},
                    {"explanation", e.adequacy.explanation}};
   j["plausibility"] = PlausibilityJson(e.plausibility);
+  nlohmann::json ev = nlohmann::json::array();
+  for (const auto& sp : e.standstill)
+    ev.push_back({{"param", sp.param}, {"mean", sp.value}, {"se", sp.sd}, {"stops", sp.stops}, {"seconds", sp.seconds}});
+  j["standstill"] = {{"stops", e.standstill_stops}, {"seconds", e.standstill_seconds}, {"evidence", ev}};
   j["gated_hours"] = e.gated_hours;
   j["window_hours"] = e.window_hours;
   j["vehicle"] = config.vehicle.name;
@@ -320,6 +324,20 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
   std::printf(" short_drive=%llu\n", static_cast<unsigned long long>(acc.counters().short_drive_samples));
   std::printf("  standstill a_y (road cross-slope): %.3f m/s^2 over %llu samples\n", pipeline.gate().standstill().mean_mps2(),
               static_cast<unsigned long long>(pipeline.gate().standstill().samples));
+  if (outcome.final_estimate) {
+    const pipeline::Estimate& fe = *outcome.final_estimate;
+    std::printf("  standstill evidence: %zu stops (%.0f s) in the window", fe.standstill_stops, fe.standstill_seconds);
+    for (const auto& sp : fe.standstill) {
+      if (sp.param == "gyro_offset_radps") {
+        std::printf("; gyro offset %.3f +- %.3f deg/s", sp.value * 180 / M_PI, sp.sd * 180 / M_PI);
+      } else {
+        std::printf("; mean a_y %.3f +- %.3f m/s^2 (accelerometer bias + cross-slope)", sp.value, sp.sd);
+      }
+    }
+    if (fe.standstill.empty() && fe.standstill_stops < identify::Identifier::kMinStops)
+      std::printf(" (fewer than %zu: no evidence used)", identify::Identifier::kMinStops);
+    std::printf("\n");
+  }
   std::printf("  report: %s\n", report_path.c_str());
   if (outcome.periodic_fit_wall_s > 5 && outcome.periodic_fit_wall_s > 0.5 * outcome.wall_s) {
     std::printf("  note: %.0f of the %.0f s went to re-identifying every identification.period_s, as the daemon does (the "

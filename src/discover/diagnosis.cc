@@ -210,6 +210,28 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   d.residuals = n;
   if (n == 0) return d;
   d.rmse = std::sqrt(rss / static_cast<double>(n));
+  // Standstill evidence (docs/two-outputs.md): each prior Identify would use becomes one
+  // pseudo-observation sqrt(w) (value - x) / sd of its parameter, in the a_y residuals' units (w
+  // their noise level sigma^2 tau), and its own cluster in the robust variance. So a standing
+  // car's mean a_y speaks for accel_bias in the ranking as it does in the fit.
+  {
+    std::set<int64_t> drives;
+    for (const Chunk& c : chunks) drives.insert(c.drive_id);
+    const double w = ResidualNoiseLevel(chunk_residuals);
+    for (const Identifier::StandstillPrior& sp : identifier.StandstillPriors(drives)) {
+      int col = -1;
+      for (int i = model::kNumParams; i < np; ++i)
+        if (big.param_name(i) == sp.param) col = i;
+      if (col < 0 || !(w > 0)) continue;
+      Eigen::VectorXd a = Eigen::VectorXd::Zero(np);
+      a[col] = -std::sqrt(w) / sp.sd;
+      const double r = std::sqrt(w) * (sp.value - x[static_cast<size_t>(col)]) / sp.sd;
+      M += a * a.transpose();
+      Ae += a * r;
+      chunk_Ae.push_back(a * r);
+      d.evidence.push_back(sp);
+    }
+  }
 
   // Projection against the fitted parameters: b = (J'J)^-1 J'g for every candidate column.
   const int nf = static_cast<int>(fitted.size()), nc = static_cast<int>(cand.size());
@@ -325,6 +347,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
   Ladder ladder;
   std::vector<std::string> effects = start_effects;
   Identifier current(config, wheelbase_m, model::ModelSpec::FromNames(effects, library));
+  current.set_standstill(options.standstill);
   IdentificationResult fit = current.Identify(training_in, validation_in, std::optional<std::vector<double>>{});
   current.set_drive_loads(fit.drive_loads);
   if (!fit.valid) {
@@ -370,6 +393,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       std::vector<std::string> trial = effects;
       trial.push_back(c.effect);
       Identifier next(config, wheelbase_m, model::ModelSpec::FromNames(trial, library));
+      next.set_standstill(options.standstill);
       next.set_drive_loads(fit.drive_loads);  // load_change: start from the current ratios
       std::vector<double> warm = Extend(current.spec(), fit.AllValues(), next.spec());
       IdentificationResult f2 = next.Identify(training, validation, std::optional<std::vector<double>>(warm));

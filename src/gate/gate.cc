@@ -34,6 +34,7 @@ GatedSample Gate::Process(const sync::Sample& s) noexcept {
   g.sample = s;
   const double gap_s = static_cast<double>(s.t_ns - last_t_ns_) * 1e-9;
   if (drive_id_ < 0 || gap_s > config_.drive_gap_s || gap_s < 0) {
+    EndStop();
     // A key cycle ends at a bus silence longer than drive_gap_s (time going backwards: likewise).
     ++drive_id_;
     ++counters_.drives;
@@ -83,11 +84,23 @@ GatedSample Gate::Process(const sync::Sample& s) noexcept {
     ++standstill_.samples;
     standstill_.sum_lat_accel += s.lat_accel_mps2;
     standstill_.sum_sq_lat_accel += s.lat_accel_mps2 * s.lat_accel_mps2;
+    if (stop_.samples == 0) {
+      stop_.drive_id = drive_id_;
+      stop_.t_start_ns = s.t_ns;
+    }
+    ++stop_.samples;
+    stop_sum_a_ += s.lat_accel_mps2;
+    if (s.has_yaw_rate && std::isfinite(s.yaw_rate_radps)) {
+      ++stop_samples_r_;
+      stop_sum_r_ += s.yaw_rate_radps;
+    }
+    stop_last_ns_ = s.t_ns;
   } else if (s.speed_mps <= config_.min_speed_mps) {
     g.verdict = Verdict::kBelowMinSpeed;
   } else if (std::abs(s.lat_accel_mps2) >= config_.max_abs_lat_accel_mps2) {
     g.verdict = Verdict::kNonlinearRange;
   }
+  if (g.verdict != Verdict::kStandstill && s.valid) EndStop();  // moving again (an invalid sample does not end it)
   const bool accepted = g.verdict == Verdict::kAccepted;
   g.segment_start = accepted && (!prev_accepted_ || !contiguous);
   g.quasi_steady = accepted && contiguous && std::abs(g.steer_rate_radps) < config_.quasi_steady_max_steer_rate_radps &&
@@ -98,6 +111,33 @@ GatedSample Gate::Process(const sync::Sample& s) noexcept {
   have_prev_ = s.valid;
   last_t_ns_ = s.t_ns;
   return g;
+}
+
+void Gate::EndStop() noexcept {
+  if (stop_.samples == 0) return;
+  stop_.seconds = static_cast<double>(stop_last_ns_ - stop_.t_start_ns) * 1e-9 + period_s_;
+  stop_.mean_lat_accel_mps2 = stop_sum_a_ / static_cast<double>(stop_.samples);
+  stop_.mean_yaw_rate_radps = stop_samples_r_ > 0 ? stop_sum_r_ / static_cast<double>(stop_samples_r_)
+                                                  : std::numeric_limits<double>::quiet_NaN();
+  // Bounded: the identification's window holds the stops of its drives; a daemon that is never
+  // asked keeps the newest kMaxStops.
+  constexpr size_t kMaxStops = 100000;
+  if (stops_.size() >= kMaxStops) stops_.erase(stops_.begin(), stops_.begin() + kMaxStops / 2);
+  try {
+    stops_.push_back(stop_);
+  } catch (...) {  // out of memory: the stop is lost, nothing else
+  }
+  stop_ = StandstillStop{};
+  stop_sum_a_ = stop_sum_r_ = 0;
+  stop_samples_r_ = 0;
+}
+
+void Gate::Finish() noexcept { EndStop(); }
+
+std::vector<StandstillStop> Gate::TakeStops() {
+  std::vector<StandstillStop> out;
+  out.swap(stops_);
+  return out;
 }
 
 }  // namespace ndsid::gate

@@ -1,4 +1,5 @@
 #include "ndsid/identify/identifier.h"
+#include "ndsid/model/effect_library.h"
 
 #include <ceres/ceres.h>
 #include <spdlog/spdlog.h>
@@ -305,6 +306,41 @@ IdentificationResult Identifier::IdentifyWithDriveLoads(const SegmentList& train
   return fit;
 }
 
+std::vector<Identifier::StandstillPrior> Identifier::StandstillPriors(const std::vector<gate::StandstillStop>& stops,
+                                                                      const std::set<int64_t>& drives) {
+  // Each stop is one observation (its mean over often hundreds of correlated samples): the
+  // spread between stops holds the sensor noise, the cross-slope where the car stood and any
+  // drift of the offset, so the standard error of the mean over the stops is honest without a
+  // noise model. Floor: 1 % of the effect's typical magnitude (identical stops, e.g. a coarsely
+  // quantised sensor, would otherwise make an infinitely sure prior).
+  std::vector<StandstillPrior> out;
+  auto add = [&](const char* effect, auto value_of) {
+    const auto e = model::EffectLibrary::Builtin().Find(effect);
+    if (!e || e->info().params.empty()) return;
+    const std::string& param = e->info().params[0].name;
+    const double typical = e->info().params[0].typical;
+    std::vector<double> v;
+    double seconds = 0;
+    for (const gate::StandstillStop& st : stops) {
+      if (!drives.empty() && !drives.count(st.drive_id)) continue;
+      const double x = value_of(st);
+      if (!std::isfinite(x)) continue;
+      v.push_back(x);
+      seconds += st.seconds;
+    }
+    if (v.size() < kMinStops) return;
+    const double n = static_cast<double>(v.size());
+    double mean = 0, ss = 0;
+    for (double x : v) mean += x / n;
+    for (double x : v) ss += (x - mean) * (x - mean);
+    const double se = std::sqrt(ss / (n - 1) / n);
+    out.push_back({param, mean, std::max(se, 0.01 * typical), v.size(), seconds});
+  };
+  add("gyro_offset", [](const gate::StandstillStop& st) { return st.mean_yaw_rate_radps; });
+  add("accel_bias", [](const gate::StandstillStop& st) { return st.mean_lat_accel_mps2; });
+  return out;
+}
+
 IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, const SegmentList& validation,
                                                  const std::optional<std::vector<double>>& warm_start) const {
   IdentificationResult r;
@@ -397,6 +433,24 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
       if (spec_.param_name(i) != pr.name || bounds[i].fixed) continue;
       priors.push_back(std::make_unique<PriorCost>(np, i, scale[i], pr.value, pr.sd));
       problem.AddResidualBlock(priors.back().get(), nullptr, theta.data());
+    }
+  }
+  // Standstill evidence: a prior from the stops of the training drives on gyro_offset and
+  // accel_bias (docs/two-outputs.md). A configured prior on the same parameter wins.
+  std::set<int64_t> training_drives;
+  for (const stats::Segment* seg : training) training_drives.insert(seg->drive_id);
+  std::vector<std::string> evidence_notes;
+  for (const StandstillPrior& sp : StandstillPriors(training_drives)) {
+    const bool configured = std::any_of(config_.priors.begin(), config_.priors.end(),
+                                        [&](const config::ParameterPrior& pr) { return pr.name == sp.param; });
+    for (int i = model::kNumParams; i < np && !configured; ++i) {
+      if (spec_.param_name(i) != sp.param) continue;
+      priors.push_back(std::make_unique<PriorCost>(np, i, scale[i], sp.value, sp.sd));
+      problem.AddResidualBlock(priors.back().get(), nullptr, theta.data());
+      char note[256];
+      std::snprintf(note, sizeof note, "standstill evidence on %s: %.4g +- %.2g from %zu stops (%.0f s); its standard error includes it",
+                    sp.param.c_str(), sp.value, sp.sd, sp.stops, sp.seconds);
+      evidence_notes.push_back(note);
     }
   }
   double prior_weight = 0;
@@ -613,6 +667,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
     } else if (config_.yaw_rate_output) {
       rep.notes.push_back("outputs: a_y alone (identification.outputs asks for the yaw rate, but no chunk has one)");
     }
+    for (const std::string& n : evidence_notes) rep.notes.push_back(n);
     for (const auto& pc : priors) {
       for (const config::ParameterPrior& pr : config_.priors) {
         if (pr.name == spec_.param_name(pc->index())) {

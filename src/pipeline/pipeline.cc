@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 namespace ndsid::pipeline {
 
@@ -55,10 +56,20 @@ void Pipeline::ConsumeSamples() noexcept {
     accumulator_.Add(g);
   }
   samples_.clear();
+  std::vector<gate::StandstillStop> stops = gate_.TakeStops();
+  if (stops.empty()) return;
+  try {
+    stops_.insert(stops_.end(), stops.begin(), stops.end());
+  } catch (...) {  // out of memory: these stops are lost as evidence, nothing else
+  }
+  const auto& window = accumulator_.window();
+  while (!stops_.empty() && !window.empty() && stops_.front().drive_id < window.front()->drive_id) stops_.pop_front();
 }
 
 void Pipeline::Finish() {
   sync_.Flush(samples_);
+  ConsumeSamples();
+  gate_.Finish();
   ConsumeSamples();
   accumulator_.Finish();
 }
@@ -98,6 +109,10 @@ WindowSnapshot Pipeline::Snapshot() const {
   const bool yaw = config_.role(config::Role::kYawRate) != nullptr;
   snap.steady_state = accumulator_.steady_state().Estimate(config_.vehicle.wheelbase_m, yaw);
   snap.coverage = accumulator_.coverage();
+  std::set<int64_t> drives;
+  for (const auto& seg : accumulator_.window()) drives.insert(seg->drive_id);
+  for (const gate::StandstillStop& st : stops_)
+    if (drives.count(st.drive_id)) snap.standstill.push_back(st);
   return snap;
 }
 
@@ -117,7 +132,9 @@ std::optional<model::Params<double>> Pipeline::WarmStartBase() const {
 
 identify::IdentificationResult Pipeline::Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
                                              const std::optional<std::vector<double>>& warm_start) {
-  return identifier.Identify(snap.training, snap.validation, warm_start);
+  identify::Identifier id = identifier;  // the snapshot's standstills, on this thread's copy
+  id.set_standstill(snap.standstill);
+  return id.Identify(snap.training, snap.validation, warm_start);
 }
 
 const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit) {
@@ -130,6 +147,9 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   e.window_hours = snap.window_hours;
   e.training_segments = snap.training.size();
   e.validation_segments = snap.validation.size();
+  e.standstill_stops = snap.standstill.size();
+  for (const auto& st : snap.standstill) e.standstill_seconds += st.seconds;
+  e.standstill = identify::Identifier::StandstillPriors(snap.standstill, {});
   e.fit = std::move(fit);
   // Plausibility (docs/monitoring.md): a fit of data that break the kinematics, or an EG that is
   // unphysical or undetermined, is published as not valid, with the checks' words as reason.

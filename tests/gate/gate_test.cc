@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace ndsid::gate {
 namespace {
 
@@ -82,6 +84,48 @@ TEST(Gate, QuasiSteadyOnlyWhenSteeringIsStill) {
   }
   EXPECT_GT(steady_hold, 190);
   EXPECT_LT(steady_ramp, 10);
+}
+
+}  // namespace
+}  // namespace ndsid::gate
+
+namespace ndsid::gate {
+namespace {
+
+// Catches: stops merged across a drive boundary or a drive on, their means taken over the
+// samples before the standstill rule held, or the yaw rate's mean lost (the gyro offset).
+TEST(Gate, StandstillStopsCarryTheirMeans) {
+  Gate g(config::GateConfig{}, 0.01);
+  int64_t k = 0;
+  auto feed = [&](int n, double v, double ay, double r, bool yaw = true) {
+    for (int i = 0; i < n; ++i) {
+      sync::Sample s = Moving(k++, v, ay);
+      s.has_yaw_rate = yaw;
+      s.yaw_rate_radps = r;
+      g.Process(s);
+    }
+  };
+  feed(500, 20, 1.0, 0.05);
+  feed(400, 0.0, 0.2, 0.007);   // first stop: 1 s before the standstill rule, then 3 s counted
+  feed(500, 20, 1.0, 0.05);
+  feed(300, 0.0, -0.1, 0.008, false);  // second stop, no yaw rate
+  k += 10000;                          // a bus silence: the drive ends (the stop has ended too)
+  feed(200, 0.0, 0.3, -0.002);         // a stop at the start of the next drive, ended by Finish
+  g.Finish();
+  const auto stops = g.TakeStops();
+  ASSERT_EQ(stops.size(), 3u);
+  EXPECT_EQ(stops[0].drive_id, 0);
+  EXPECT_EQ(stops[0].samples, 300u);
+  EXPECT_NEAR(stops[0].seconds, 3.0, 1e-9);
+  EXPECT_NEAR(stops[0].mean_lat_accel_mps2, 0.2, 1e-12);
+  EXPECT_NEAR(stops[0].mean_yaw_rate_radps, 0.007, 1e-12);
+  EXPECT_EQ(stops[1].samples, 200u);
+  EXPECT_NEAR(stops[1].mean_lat_accel_mps2, -0.1, 1e-12);
+  EXPECT_TRUE(std::isnan(stops[1].mean_yaw_rate_radps));
+  EXPECT_EQ(stops[2].drive_id, 1);
+  EXPECT_EQ(stops[2].samples, 100u);
+  EXPECT_NEAR(stops[2].mean_yaw_rate_radps, -0.002, 1e-12);
+  EXPECT_TRUE(g.TakeStops().empty()) << "taken once";
 }
 
 }  // namespace

@@ -43,6 +43,8 @@ struct Diagnosis {
   std::vector<SignatureCorrelation> signatures;  // by drss
   bool unexplained = false;            // structure left that no candidate explains
   std::string unexplained_text;
+  // Standstill evidence scored with the candidates (accel_bias, gyro_offset): the stops' mean.
+  std::vector<identify::Identifier::StandstillPrior> evidence;
 };
 
 struct DiagnosisOptions {
@@ -76,6 +78,8 @@ struct LadderOptions {
   // on data shifted by the significant ones.
   bool align = true;
   AlignmentOptions alignment;
+  // The window's standstills (docs/two-outputs.md): every fit and score of the ladder uses them.
+  std::vector<gate::StandstillStop> standstill;
 };
 
 struct Ladder {

@@ -5,7 +5,9 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include "ndsid/config/config.h"
 #include "ndsid/sync/sample.h"
@@ -45,6 +47,19 @@ struct StandstillDiagnostic {
   double mean_mps2() const { return samples ? sum_lat_accel / samples : 0.0; }
 };
 
+// One standstill (slow for at least standstill_min_s, until the car moves or the drive ends):
+// the means of the measured a_y and yaw rate over it. There a_y = accelerometer bias +
+// g sin(cross-slope) and the yaw rate = the gyro offset: the evidence the identification uses for
+// accel_bias and gyro_offset (docs/two-outputs.md, "Standstill evidence").
+struct StandstillStop {
+  int64_t drive_id = 0;
+  int64_t t_start_ns = 0;
+  double seconds = 0;
+  uint64_t samples = 0;
+  double mean_lat_accel_mps2 = 0;
+  double mean_yaw_rate_radps = std::numeric_limits<double>::quiet_NaN();  // NaN: no yaw rate
+};
+
 struct GateCounters {
   std::array<uint64_t, kNumVerdicts> by_verdict{};
   uint64_t drives = 0;
@@ -58,12 +73,22 @@ class Gate {
 
   const GateCounters& counters() const noexcept { return counters_; }
   const StandstillDiagnostic& standstill() const noexcept { return standstill_; }
+  // Standstills completed since the last call (a stop ends when the car moves, the drive
+  // ends, or Finish() is called), moved out.
+  std::vector<StandstillStop> TakeStops();
+  void Finish() noexcept;  // end of data: completes the standstill in progress
 
  private:
   config::GateConfig config_;
   double period_s_;
   GateCounters counters_;
   StandstillDiagnostic standstill_;
+  void EndStop() noexcept;
+  StandstillStop stop_;            // the standstill in progress (samples 0: none)
+  double stop_sum_a_ = 0, stop_sum_r_ = 0;
+  uint64_t stop_samples_r_ = 0;
+  int64_t stop_last_ns_ = 0;
+  std::vector<StandstillStop> stops_;  // completed, not yet taken
   int64_t drive_id_ = -1;
   int64_t last_t_ns_ = 0;
   double drive_distance_m_ = 0;

@@ -9,10 +9,12 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "ndsid/config/config.h"
+#include "ndsid/gate/gate.h"
 #include "ndsid/model/model_spec.h"
 #include "ndsid/model/single_track.h"
 #include "ndsid/stats/segment.h"
@@ -127,6 +129,30 @@ class Identifier {
   void set_drive_loads(const std::vector<DriveLoad>& loads);
   const std::map<int64_t, double>& drive_loads() const { return drive_loads_; }
 
+  // Standstill evidence (docs/two-outputs.md): the window's standstills. Identify turns those of
+  // its training drives into a Gaussian prior on gyro_offset (the stops' mean yaw rate) and on
+  // accel_bias (their mean a_y: bias + the cross-slope where the car stood), each with the
+  // standard error of the mean over the stops, when the model has that effect and at least
+  // kMinStops stops exist. Set it on a copy for a fit on another thread.
+  static constexpr size_t kMinStops = 5;
+  void set_standstill(std::vector<gate::StandstillStop> stops) { standstill_ = std::move(stops); }
+  const std::vector<gate::StandstillStop>& standstill() const { return standstill_; }
+
+  // One prior from the standstill evidence, as used by Identify.
+  struct StandstillPrior {
+    std::string param;  // gyro_offset_radps or accel_bias_mps2
+    double value = 0;
+    double sd = 0;
+    size_t stops = 0;
+    double seconds = 0;
+  };
+  // The priors the standstills of `drives` give (any drive when `drives` is empty), whatever the model.
+  std::vector<StandstillPrior> StandstillPriors(const std::set<int64_t>& drives) const {
+    return StandstillPriors(standstill_, drives);
+  }
+  static std::vector<StandstillPrior> StandstillPriors(const std::vector<gate::StandstillStop>& stops,
+                                                       const std::set<int64_t>& drives);
+
  private:
   IdentificationResult IdentifyAtLoads(const SegmentList& training, const SegmentList& validation,
                                        const std::optional<std::vector<double>>& warm_start) const;
@@ -137,6 +163,7 @@ class Identifier {
   DriveLoad FitDriveLoad(const std::vector<double>& params, const SegmentList& drive_segments, int64_t drive,
                          double start) const;
   std::map<int64_t, double> drive_loads_;
+  std::vector<gate::StandstillStop> standstill_;
   config::IdentificationConfig config_;
   double wheelbase_m_;
   model::ModelSpec spec_;

@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <memory>
+#include <deque>
 #include <optional>
 #include <set>
 #include <span>
@@ -36,6 +37,11 @@ struct Estimate {
   double window_hours = 0;
   size_t training_segments = 0;
   size_t validation_segments = 0;
+  // Standstill evidence of the window (docs/two-outputs.md): its stops, and the gyro offset and
+  // mean a_y they give (each once >= Identifier::kMinStops stops have it).
+  size_t standstill_stops = 0;
+  double standstill_seconds = 0;
+  std::vector<identify::Identifier::StandstillPrior> standstill;
 };
 
 // The window split into training and held-out drives (every k-th drive validates, k from
@@ -49,6 +55,7 @@ struct WindowSnapshot {
   int64_t data_time_ns = 0;
   stats::SteadyStateEstimate steady_state;
   stats::Coverage coverage;
+  std::vector<gate::StandstillStop> standstill;  // the standstills of the window's drives (evidence)
 };
 
 class Pipeline {
@@ -117,6 +124,7 @@ class Pipeline {
   identify::Identifier identifier_;
   adequacy::Tracker adequacy_;
   std::vector<sync::Sample> samples_;
+  std::deque<gate::StandstillStop> stops_;  // of the window's drives (older ones are dropped)
   std::optional<Estimate> last_;
   std::vector<Estimate> history_;
   std::set<int64_t> implausible_drives_reported_;  // drives whose failed check was logged

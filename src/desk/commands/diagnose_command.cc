@@ -103,6 +103,7 @@ int Run(const DiagnoseArgs& a) {
   opt.diagnosis.candidates = candidates;
   opt.diagnosis.z_threshold = a.z_threshold;
   opt.align = !a.no_align;
+  opt.standstill = data->window.standstill;
   const discover::Ladder ladder = discover::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
                                                              start, data->pipeline->library(), data->window.training,
                                                              data->window.validation, opt);
