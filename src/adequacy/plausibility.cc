@@ -1,5 +1,6 @@
 #include "ndsid/adequacy/plausibility.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -151,6 +152,50 @@ PlausibilityReport CheckData(const std::vector<const stats::Segment*>& segments,
   }
   DataChecks(all, limits, report.checks);
   return report;
+}
+
+namespace {
+
+Check WheelSpeedCheck(const SpeedSums& s, const config::PlausibilityConfig& q) {
+  Check c{.name = "wheel_speed"};
+  c.informative_s = s.seconds;
+  if (s.seconds < q.min_informative_s || !(s.sww > 0) || !(s.svv > 0)) {
+    c.message = Fmt("vehicle_speed against the wheel speeds: skipped, %.0f s moving (needs %.0f s)", s.seconds, q.min_informative_s);
+    return c;
+  }
+  const double ratio = s.svw / s.sww, rho = s.svw / std::sqrt(s.sww * s.svv);
+  c.value = ratio;
+  const bool ok = ratio >= q.wheel_speed_ratio_min && ratio <= q.wheel_speed_ratio_max && rho >= q.wheel_speed_correlation_min;
+  c.verdict = ok ? Verdict::kPassed : Verdict::kFailed;
+  c.message = Fmt("vehicle_speed against the wheel speeds' mean: ratio %.3f (accepted %.2f..%.2f), correlation %.3f", ratio,
+                  q.wheel_speed_ratio_min, q.wheel_speed_ratio_max, rho);
+  if (!ok) {
+    c.message += rho >= q.wheel_speed_correlation_min ? ": a unit is wrong (vehicle_speed or wheel_speed: km/h, m/s, mph)"
+                                                       : ": speed and wheel speeds do not move together (wrong signal mapped?)";
+  }
+  return c;
+}
+
+}  // namespace
+
+void CheckWheelSpeed(const std::map<int64_t, SpeedSums>& by_drive, const config::PlausibilityConfig& q,
+                     PlausibilityReport& report) {
+  if (by_drive.empty()) return;
+  SpeedSums all;
+  for (const auto& [id, s] : by_drive) {
+    all.sww += s.sww, all.svw += s.svw, all.svv += s.svv, all.seconds += s.seconds;
+    all.t0_ns = std::min(all.t0_ns, s.t0_ns);
+    const Check c = WheelSpeedCheck(s, q);
+    auto it = std::find_if(report.drives.begin(), report.drives.end(), [&](const DriveChecks& d) { return d.drive_id == id; });
+    if (it == report.drives.end()) {
+      report.drives.push_back(DriveChecks{.drive_id = id, .t0_ns = s.t0_ns});
+      it = report.drives.end() - 1;
+    }
+    const bool failed_before = std::any_of(it->checks.begin(), it->checks.end(), [](const Check& x) { return x.verdict == Verdict::kFailed; });
+    if (c.verdict == Verdict::kFailed && !failed_before) ++report.drives_failed;
+    it->checks.push_back(c);
+  }
+  report.checks.push_back(WheelSpeedCheck(all, q));
 }
 
 void CheckEstimate(const EstimateFacts& f, const config::PlausibilityConfig& q, PlausibilityReport& report) {

@@ -28,7 +28,7 @@ constexpr RoleInfo kRoles[kNumRoles] = {
     {"steering_wheel_angle", true, false},   {"vehicle_speed", true, false},
     {"lateral_acceleration", true, false},   {"yaw_rate", false, false},
     {"longitudinal_acceleration", false, false}, {"reverse_gear", false, true},
-    {"esc_intervention", false, true},
+    {"esc_intervention", false, true},       {"wheel_speed", false, false},
 };
 
 std::string Resolve(const std::string& base_dir, const std::string& p) {
@@ -185,7 +185,8 @@ double UnitToSi(Role role, const std::string& unit) {
   std::vector<Unit> units;
   switch (role) {
     case Role::kSteeringWheelAngle: units = {{"deg", kDegToRad}, {"rad", 1.0}}; break;
-    case Role::kSpeed: units = {{"km/h", 1.0 / 3.6}, {"kph", 1.0 / 3.6}, {"m/s", 1.0}, {"mph", 0.44704}}; break;
+    case Role::kSpeed:
+    case Role::kWheelSpeed: units = {{"km/h", 1.0 / 3.6}, {"kph", 1.0 / 3.6}, {"m/s", 1.0}, {"mph", 0.44704}}; break;
     case Role::kLateralAcceleration:
     case Role::kLongitudinalAcceleration: units = {{"m/s^2", 1.0}, {"m/s2", 1.0}, {"g", 9.81}}; break;
     case Role::kYawRate: units = {{"deg/s", kDegToRad}, {"rad/s", 1.0}}; break;
@@ -349,6 +350,9 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
     q.eg_rel_se_max = Ranged(p, "eg_rel_se_max", q.eg_rel_se_max, 1e-3, 100);
     q.eg_se_floor_deg_per_g = Ranged(p, "eg_se_floor_deg_per_g", q.eg_se_floor_deg_per_g, 0, 100);
     q.min_informative_s = Ranged(p, "min_informative_s", q.min_informative_s, 0, 1e6);
+    q.wheel_speed_ratio_min = Ranged(p, "wheel_speed_ratio_min", q.wheel_speed_ratio_min, 0.01, 1);
+    q.wheel_speed_ratio_max = Ranged(p, "wheel_speed_ratio_max", q.wheel_speed_ratio_max, 1, 100);
+    q.wheel_speed_correlation_min = Ranged(p, "wheel_speed_correlation_min", q.wheel_speed_correlation_min, 0, 1);
     p.Finish();
   }
   if (top.Has("lcm")) {

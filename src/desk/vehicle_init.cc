@@ -207,6 +207,35 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
         .evidence.push_back(fmt::format("unit {} (posterior {}; DBC says '{}'); p99 |a_y| = {:.2f} m/s^2", au[ba].name,
                                         Pct(marg_a[ba] / total), best.a->unit, a99 * fa));
     if (!wheel_text.empty()) role(Role::kSpeed).evidence.push_back(wheel_text);
+    // The wheel speeds' mean as the optional wheel_speed role (the speed's plausibility check),
+    // its unit from the speed's and the measured ratio (speed = ratio * mean of the wheels).
+    const bool single_wheels = std::all_of(wheels.begin(), wheels.end(), [](const Source& w) { return w.terms.size() == 1; });
+    if (std::isfinite(wheel_ratio) && wheels.size() >= 2 && wheels.size() <= 4 && single_wheels) {
+      const double w_si = fv * std::fabs(wheel_ratio);
+      size_t bu = 0;
+      for (size_t i = 1; i < su.size(); ++i)
+        if (std::fabs(std::log(su[i].to_si / w_si)) < std::fabs(std::log(su[bu].to_si / w_si))) bu = i;
+      if (std::fabs(std::log(su[bu].to_si / w_si)) < std::log(1.1)) {
+        RoleProposal p;
+        p.role = Role::kWheelSpeed;
+        SetSource(p, wheels.front(), data);
+        std::string sum;
+        for (const auto& w : wheels) sum += (sum.empty() ? "" : " + ") + w.expression;
+        p.expression = fmt::format("({}) / {}", sum, wheels.size());
+        p.multi_signal = true;
+        for (const auto& w : wheels) {
+          const SignalSeries& ws = data.signals[static_cast<size_t>(w.terms[0])];
+          p.period_s = std::max(p.period_s, ws.period_s);
+        }
+        p.found = true;
+        p.unit = su[bu].name;
+        p.sign = 1;
+        p.confidence = role(Role::kSpeed).confidence;
+        p.evidence.push_back(wheel_text + fmt::format(" → wheel speeds in {} (only for the plausibility check of vehicle_speed)",
+                                                      su[bu].name));
+        result.roles.push_back(p);
+      }
+    }
     if (!best.r->pair_evidence.empty()) role(Role::kYawRate).evidence.push_back(best.r->pair_evidence);
     if (!best.a->pair_evidence.empty()) role(Role::kLateralAcceleration).evidence.push_back(best.a->pair_evidence);
     v_si = grid.Of(*best.v);

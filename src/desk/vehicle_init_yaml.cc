@@ -18,6 +18,7 @@ const char* RoleTitle(Role r) {
     case Role::kLateralAcceleration: return "lateral acceleration";
     case Role::kYawRate: return "yaw rate";
     case Role::kLongitudinalAcceleration: return "longitudinal acceleration";
+    case Role::kWheelSpeed: return "wheel speeds' mean (plausibility of vehicle_speed)";
     default: return "";
   }
 }

@@ -10,6 +10,10 @@
 #include <set>
 
 namespace ndsid::pipeline {
+namespace {
+// Below this the wheel speeds' quantisation and the speed signal's dead band dominate.
+constexpr double kWheelCheckMinSpeed_mps = 2.0;
+}  // namespace
 
 Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
     : config_(config),
@@ -54,8 +58,19 @@ void Pipeline::ConsumeSamples() noexcept {
     const gate::GatedSample g = gate_.Process(s);
     if (observer_) observer_(g);
     accumulator_.Add(g);
+    const sync::Sample& x = g.sample;
+    if (x.valid && x.has_wheel_speed && (x.speed_mps > kWheelCheckMinSpeed_mps || x.wheel_speed_mps > kWheelCheckMinSpeed_mps)) {
+      try {
+        wheel_speed_[g.drive_id].Add(x.speed_mps, x.wheel_speed_mps, 1.0 / config_.sync.rate_hz, x.t_ns);
+      } catch (...) {  // out of memory: the sample is not counted, nothing else
+      }
+    }
   }
   samples_.clear();
+  if (!wheel_speed_.empty() && !accumulator_.window().empty()) {
+    const int64_t first = accumulator_.window().front()->drive_id;
+    while (!wheel_speed_.empty() && wheel_speed_.begin()->first < first) wheel_speed_.erase(wheel_speed_.begin());
+  }
   std::vector<gate::StandstillStop> stops = gate_.TakeStops();
   if (stops.empty()) return;
   try {
@@ -156,6 +171,14 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
   all.insert(all.end(), snap.validation.begin(), snap.validation.end());
   e.plausibility = adequacy::CheckData(all, config_.plausibility);
+  {
+    std::map<int64_t, adequacy::SpeedSums> wheel;
+    for (const stats::Segment* seg : all) {
+      const auto it = wheel_speed_.find(seg->drive_id);
+      if (it != wheel_speed_.end()) wheel.emplace(*it);
+    }
+    adequacy::CheckWheelSpeed(wheel, config_.plausibility, e.plausibility);
+  }
   if (e.fit.valid) {
     adequacy::EstimateFacts facts;
     facts.steer_ratio = snap.steady_state.valid ? snap.steady_state.steer_ratio : 0;

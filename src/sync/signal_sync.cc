@@ -119,6 +119,7 @@ void SignalSync::EmitUntil(int64_t t_end, std::vector<Sample>& out) noexcept {
         case Role::kLongitudinalAcceleration: s.long_accel_mps2 = v; s.has_long_accel = true; break;
         case Role::kReverseGear: s.reverse = spec->IsActive(v); break;
         case Role::kEscIntervention: s.esc_active = spec->IsActive(v); break;
+        case Role::kWheelSpeed: s.wheel_speed_mps = v; s.has_wheel_speed = true; break;
         default: break;
       }
     }

@@ -130,5 +130,58 @@ TEST(Plausibility, EstimateChecks) {
                   .undetermined());
 }
 
+// Catches: a vehicle_speed unit mix-up (or a wheel_speed role in the wrong unit) that the
+// kinematics would only see with a yaw rate; drives counted once; too little driving skipped.
+TEST(Plausibility, SpeedAgainstWheelSpeeds) {
+  const config::PlausibilityConfig q;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  // Drive d: 200 s at 50 Hz of a varying speed; speed = factor[d] * wheels (+ 1 % tyre tolerance,
+  // noise 0.1 m/s on each).
+  auto sums = [&](double factor, double seconds) {
+    SpeedSums s;
+    for (int k = 0; k < static_cast<int>(seconds * 50); ++k) {
+      const double w = 15 + 10 * std::sin(k * 0.002);
+      s.Add(factor * 1.01 * w + 0.1 * gauss(rng), w + 0.1 * gauss(rng), 0.02, 1000 + k);
+    }
+    return s;
+  };
+  std::map<int64_t, SpeedSums> ok{{0, sums(1.0, 200)}, {1, sums(1.0, 200)}};
+  PlausibilityReport r;
+  CheckWheelSpeed(ok, q, r);
+  EXPECT_EQ(Find(r, "wheel_speed").verdict, Verdict::kPassed) << Find(r, "wheel_speed").message;
+  EXPECT_NEAR(Find(r, "wheel_speed").value, 1.01, 0.005);
+  EXPECT_EQ(r.drives.size(), 2u);
+  EXPECT_EQ(r.drives_failed, 0);
+
+  for (double factor : {1 / 3.6, 3.6, 1 / 1.609344, 1.609344, 2.23694}) {  // m/s, km/h, mph mixed up
+    std::map<int64_t, SpeedSums> bad{{0, sums(factor, 200)}, {3, sums(factor, 200)}};
+    PlausibilityReport b;
+    b.drives.push_back(DriveChecks{.drive_id = 3, .checks = {Check{.name = "kinematics", .verdict = Verdict::kFailed}}});
+    b.drives_failed = 1;
+    CheckWheelSpeed(bad, q, b);
+    const Check& c = Find(b, "wheel_speed");
+    EXPECT_EQ(c.verdict, Verdict::kFailed) << factor;
+    EXPECT_NE(c.message.find("a unit is wrong"), std::string::npos) << c.message;
+    EXPECT_EQ(b.drives_failed, 2) << "drive 3 failed before and counts once";
+    EXPECT_FALSE(b.passed());
+  }
+  // Unrelated signals: not a unit, a mapping.
+  std::map<int64_t, SpeedSums> unrelated;
+  for (int k = 0; k < 10000; ++k) unrelated[0].Add(15 + 5 * gauss(rng), 15 + 5 * gauss(rng), 0.02, k);
+  PlausibilityReport u;
+  CheckWheelSpeed(unrelated, q, u);
+  EXPECT_EQ(Find(u, "wheel_speed").verdict, Verdict::kFailed);
+  EXPECT_NE(Find(u, "wheel_speed").message.find("do not move together"), std::string::npos);
+  // 10 s of driving: skipped, not failed; no role at all: no check.
+  std::map<int64_t, SpeedSums> short_drive{{0, sums(3.6, 10)}};
+  PlausibilityReport s;
+  CheckWheelSpeed(short_drive, q, s);
+  EXPECT_EQ(Find(s, "wheel_speed").verdict, Verdict::kSkipped);
+  PlausibilityReport none;
+  CheckWheelSpeed({}, q, none);
+  EXPECT_TRUE(none.checks.empty());
+}
+
 }  // namespace
 }  // namespace ndsid::adequacy

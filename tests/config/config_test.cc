@@ -59,6 +59,17 @@ TEST(Config, UnknownUnitNamesTheClosestAndTheAcceptedUnits) {
   EXPECT_NE(e.find("did you mean 'km/h'? (accepted: km/h, kph, m/s, mph)"), std::string::npos) << e;
 }
 
+// Catches: the optional wheel_speed role read with another role's units, or required.
+TEST(Config, WheelSpeedRoleTakesSpeedUnits) {
+  EXPECT_EQ(ParseConfig(kMinimal, "car.yaml").role(Role::kWheelSpeed), nullptr);
+  const Config c = ParseConfig(std::string(kMinimal) + "  wheel_speed: {expr: \"(W.FL + W.FR) / 2\", unit: mph}\n", "car.yaml");
+  ASSERT_NE(c.role(Role::kWheelSpeed), nullptr);
+  EXPECT_NEAR(c.role(Role::kWheelSpeed)->ToSi(10.0), 4.4704, 1e-12);
+  EXPECT_EQ(c.role(Role::kWheelSpeed)->inputs.size(), 2u);
+  const std::string e = ErrorOf(std::string(kMinimal) + "  wheel_speed: {message: W, signal: FL, unit: deg/s}\n");
+  EXPECT_NE(e.find("(accepted: km/h, kph, m/s, mph)"), std::string::npos) << e;
+}
+
 TEST(Config, RejectsWrongTypeWithPathAndLine) {
   const std::string e = ErrorOf(std::string(kMinimal) + "gate:\n  min_speed_mps: fast\n");
   EXPECT_NE(e.find("car.yaml:9"), std::string::npos) << e;

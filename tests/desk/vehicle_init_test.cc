@@ -142,6 +142,12 @@ TEST_F(SimulatedBus, RecoversNegativeSpeedSign) {
 TEST_F(SimulatedBus, RecoversSpeedInMphDespiteTheUnitString) {
   const InitResult r = Propose(WithSignal(example_dbc_, "VehicleSpeed", 1.0 / 1.609344), log_);
   ExpectRole(r, Role::kSpeed, "VEHICLE_SPEED", "VehicleSpeed", "mph", 1);
+  // The wheel speeds stay km/h: the wheel_speed role gets its own unit, not the speed's.
+  const RoleProposal* w = r.Find(Role::kWheelSpeed);
+  ASSERT_NE(w, nullptr);
+  EXPECT_EQ(w->unit, "km/h");
+  EXPECT_EQ(w->expression.rfind("(WHEEL_SPEEDS.WheelSpeed", 0), 0u) << w->expression;
+  EXPECT_NE(w->expression.find(") / 4"), std::string::npos) << w->expression;
 }
 
 TEST_F(SimulatedBus, RecoversYawRateInRadiansPerSecond) {
@@ -266,6 +272,12 @@ TEST(VehicleInitRealData, FindsTheRav4RolesAndSplitSteeringAngle) {
   ExpectRole(r, Role::kLateralAcceleration, "KINEMATICS", "ACCEL_Y", "m/s^2", -1);
   ExpectRole(r, Role::kYawRate, "KINEMATICS", "YAW_RATE", "deg/s", 1);
   EXPECT_EQ(r.bus, "can0");
+  // The wheel speeds' mean, for the plausibility check of the speed.
+  const RoleProposal* wheels = r.Find(Role::kWheelSpeed);
+  ASSERT_NE(wheels, nullptr);
+  EXPECT_EQ(wheels->unit, "km/h");
+  for (const char* w : {"WHEEL_SPEED_FL", "WHEEL_SPEED_FR", "WHEEL_SPEED_RL", "WHEEL_SPEED_RR"})
+    EXPECT_NE(wheels->expression.find(std::string("WHEEL_SPEEDS.") + w), std::string::npos) << wheels->expression;
 
   // The hand-made config agrees on every role it has (steering: its first signal).
   const config::Config hand = config::LoadConfig(std::string(NDSID_SOURCE_DIR) + "/config/rav4_2017.yaml");

@@ -7,10 +7,13 @@
 //   steer ratio    the steady-state ratio in a road vehicle's range (a rad/deg mix-up: x57)
 //   EG range       the self-steering gradient in a road vehicle's range
 //   determined     sigma(EG) not comparable to |EG|; not every free parameter on its bound
+//   wheel_speed    vehicle_speed against the wheel speeds' mean (the optional wheel_speed role):
+//                  equal within tyre tolerances; a unit mix-up gives 3.6, 1.61, 2.24 ...
 // Checked on the identification window and on every drive in it (located messages, counters).
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -58,6 +61,20 @@ struct EstimateFacts {
   int free_params_at_bound = 0;
 };
 void CheckEstimate(const EstimateFacts& facts, const config::PlausibilityConfig& limits, PlausibilityReport& report);
+
+// vehicle_speed against the wheel speeds' mean, summed per drive on the reading path (the
+// samples are not kept in the window's segments). Regression through the origin, v = ratio w.
+struct SpeedSums {
+  double sww = 0, svw = 0, svv = 0, seconds = 0;
+  int64_t t0_ns = INT64_MAX;
+  void Add(double v, double w, double dt, int64_t t_ns) {
+    sww += w * w * dt, svw += v * w * dt, svv += v * v * dt, seconds += dt;
+    if (t_ns < t0_ns) t0_ns = t_ns;
+  }
+};
+// Adds the wheel_speed check (window and per drive) to `report`; nothing when no drive has sums.
+void CheckWheelSpeed(const std::map<int64_t, SpeedSums>& by_drive, const config::PlausibilityConfig& limits,
+                     PlausibilityReport& report);
 
 const char* VerdictName(Verdict v);
 

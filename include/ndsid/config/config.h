@@ -26,6 +26,7 @@ enum class Role {
   kLongitudinalAcceleration,// m/s^2, + forward (optional)
   kReverseGear,             // flag (optional)
   kEscIntervention,         // flag (optional)
+  kWheelSpeed,              // m/s, the wheel speeds' mean (optional; a role expression): plausibility
   kCount
 };
 inline constexpr int kNumRoles = static_cast<int>(Role::kCount);
@@ -147,6 +148,9 @@ struct PlausibilityConfig {
   double eg_rel_se_max = 0.5;            // sigma(EG) / |EG| above this: not determined ...
   double eg_se_floor_deg_per_g = 0.25;   // ... unless sigma(EG) is below this (EG near 0 is fine)
   double min_informative_s = 20;         // a check needs this much informative data (else skipped)
+  double wheel_speed_ratio_min = 0.9;    // vehicle_speed / wheel speeds' mean: 1 within tyre tolerances
+  double wheel_speed_ratio_max = 1.1;
+  double wheel_speed_correlation_min = 0.9;
 };
 
 struct LcmConfig {

@@ -124,7 +124,8 @@ class Pipeline {
   identify::Identifier identifier_;
   adequacy::Tracker adequacy_;
   std::vector<sync::Sample> samples_;
-  std::deque<gate::StandstillStop> stops_;  // of the window's drives (older ones are dropped)
+  std::deque<gate::StandstillStop> stops_;
+  std::map<int64_t, adequacy::SpeedSums> wheel_speed_;  // per drive of the window (plausibility)  // of the window's drives (older ones are dropped)
   std::optional<Estimate> last_;
   std::vector<Estimate> history_;
   std::set<int64_t> implausible_drives_reported_;  // drives whose failed check was logged

@@ -16,6 +16,8 @@ struct Sample {
   double long_accel_mps2 = 0;    // a_x (valid only if has_long_accel)
   bool has_yaw_rate = false;
   bool has_long_accel = false;
+  double wheel_speed_mps = 0;    // the wheel speeds' mean (valid only if has_wheel_speed)
+  bool has_wheel_speed = false;
   bool reverse = false;          // reverse gear engaged
   bool esc_active = false;       // ESC/ABS intervening
   bool valid = false;            // all required roles fresh and every validity flag says valid
