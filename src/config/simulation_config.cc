@@ -47,6 +47,7 @@ const std::vector<EffectInfo>& EffectTable() {
       {"gyro_offset_degps", "deg/s", "yaw-rate sensor offset: r_meas = r + r0", "+-0.5",
        &SimEffects::gyro_offset_degps},
       {"gyro_scale_pct", "%", "yaw-rate sensor scale error: r_meas = (1 + k_r) r", "+-3", &SimEffects::gyro_scale_pct},
+      {"accel_scale_pct", "%", "accelerometer scale error: a_y,meas = (1 + k_a) a_y", "+-3", &SimEffects::accel_scale_pct},
       {"mass_change_kg", "kg", "per-drive mass m_i = m + U(-dm, dm), Jz scaled by m_i/m", "0..300",
        &SimEffects::mass_change_kg},
   };
@@ -317,6 +318,7 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   require(std::fabs(e.speed_scale_pct) < 50.0, "effects.speed_scale_pct in (-50, 50) %");
   require(std::fabs(e.gyro_offset_degps) <= 10.0, "effects.gyro_offset_degps in [-10, 10] deg/s");
   require(std::fabs(e.gyro_scale_pct) < 50.0, "effects.gyro_scale_pct in (-50, 50) %");
+  require(std::fabs(e.accel_scale_pct) < 50.0, "effects.accel_scale_pct in (-50, 50) %");
   require(e.mass_change_kg >= 0.0 && e.mass_change_kg < 0.5 * v.mass_kg,
           "effects.mass_change_kg in [0, mass_kg/2) (a +- range)");
   for (double dm : e.mass_schedule_kg)

@@ -126,7 +126,8 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
                                       const auto builtin = model::BuiltinEffectNames();
                                       if (std::find(builtin.begin(), builtin.end(), c) == builtin.end()) return false;
                                       const model::ModelSpec one = model::ModelSpec::FromNames({c});
-                                      return !one.effects().empty() && one.effects()[0]->info().yaw_rate_sensor;
+                                      return !one.effects().empty() && (one.effects()[0]->info().yaw_rate_sensor ||
+                                                                        one.effects()[0]->info().needs_yaw_rate_output);
                                     }),
                      candidates.end());
   }

@@ -79,8 +79,9 @@ void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) 
   }
 
   // Accelerometer: a_y,meas = a_y + g*phi + x_s*r' + b + disturbance + noise.
-  out.a_y_meas_mps2.push_back(st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot + fx.accel_bias_mps2 + disturbance +
-                              nz.lat_accel_mps2 * n_ay);
+  // Accelerometer scale (1 + k_a) on the CG acceleration (as the model's accel_scale).
+  out.a_y_meas_mps2.push_back((1.0 + fx.accel_scale_pct / 100.0) * st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot +
+                              fx.accel_bias_mps2 + disturbance + nz.lat_accel_mps2 * n_ay);
   out.a_x_meas_mps2.push_back(st.a_x + nz.long_accel_mps2 * n_ax);
   // Gyro: r_meas = (1 + k_r) r + r0 + noise.
   out.yaw_rate_meas_radps.push_back((1.0 + fx.gyro_scale_pct / 100.0) * st.r + fx.gyro_offset_degps * kDeg +

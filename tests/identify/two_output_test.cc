@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 #include "ndsid/identify/chunks.h"
 #include "ndsid/identify/identifier.h"
@@ -166,6 +167,33 @@ TEST(TwoOutputs, GyroScaleIsRecoveredWithTheSteeringRatio) {
   EXPECT_NEAR(fit.effect_params[0].value, 0.02, 0.002);
   EXPECT_NEAR(fit.params[model::kSteerRatio].value, truth[model::kSteerRatio], 0.005 * truth[model::kSteerRatio]);
   EXPECT_NEAR(fit.eg_rad_per_mps2, eg_true, 0.01 * eg_true);
+}
+
+// Catches: an accelerometer scale error (k_a) the two-output fit cannot tell from the steering
+// ratio, or a sign slip in the effect. Two seeds and both signs: with the yaw rate k_a, is and EG
+// are recovered; with a_y alone the scale goes into is (the confounding the yaw rate resolves).
+TEST(TwoOutputs, AccelScaleIsRecoveredWithTheYawRate) {
+  const model::ModelSpec spec = model::ModelSpec::FromNames({"accel_scale"});
+  const double eg_true = model::SelfSteerGradient(TruthParams(), kWheelbase);
+  for (const auto& [k_a, seed] : {std::pair{0.025, 81u}, std::pair{-0.02, 82u}}) {
+    std::vector<double> truth = BaseTruth();
+    truth.push_back(k_a);
+    const auto train = SyntheticTwoOutputSegments(spec, truth, 16, 60, kNoiseA, kNoiseR, seed);
+    const IdentificationResult fit = Identifier(Cfg(true), kWheelbase, spec).Identify(Pointers(train), {});
+    ASSERT_TRUE(fit.valid) << fit.reason;
+    const IdentificationResult alone = Identifier(Cfg(false), kWheelbase, spec).Identify(Pointers(train), {});
+    ASSERT_TRUE(alone.valid) << alone.reason;
+    std::printf("accel_scale %+.3f: two outputs k_a %+.5f +- %.5f, is %.4f, EG %+.3f%%; a_y alone k_a %+.4f +- %.4f, is %.3f\n",
+                k_a, fit.effect_params[0].value, fit.effect_params[0].se, fit.params[model::kSteerRatio].value,
+                100 * (fit.eg_rad_per_mps2 / eg_true - 1), alone.effect_params[0].value, alone.effect_params[0].se,
+                alone.params[model::kSteerRatio].value);
+    EXPECT_NEAR(fit.effect_params[0].value, k_a, 0.003);
+    EXPECT_NEAR(fit.params[model::kSteerRatio].value, truth[model::kSteerRatio], 0.005 * truth[model::kSteerRatio]);
+    EXPECT_NEAR(fit.eg_rad_per_mps2, eg_true, 0.01 * eg_true);
+    // a_y alone: k_a and is trade (the fit lands anywhere along the direction, its se meaningless).
+    EXPECT_GT(std::abs(alone.params[model::kSteerRatio].value - truth[model::kSteerRatio]), 0.005 * truth[model::kSteerRatio])
+        << "with a_y alone the scale goes (partly) into is";
+  }
 }
 
 // Catches: a two-output configuration that changes the fit of a vehicle without a yaw rate

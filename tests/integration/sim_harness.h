@@ -98,6 +98,9 @@ inline std::vector<double> TruthVector(const SimulatedRun& run, const model::Mod
     if (n == "relaxation_length_m" && e.relaxation_length_m > 0) v = e.relaxation_length_m;
     if (n == "steer_delay_s") v = e.steer_delay_ms / 1000;
     if (n == "speed_scale") v = e.speed_scale_pct / 100;
+    if (n == "accel_scale") v = e.accel_scale_pct / 100;
+    if (n == "gyro_offset_radps") v = e.gyro_offset_degps * M_PI / 180;
+    if (n == "gyro_scale") v = e.gyro_scale_pct / 100;
     if (n == "road_bank_gain") v = 1.0;  // the simulated road is banked: the bank as measured
     p.push_back(v);
   }

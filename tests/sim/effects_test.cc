@@ -47,6 +47,17 @@ TEST(Effects, AccelBiasShiftsLateralAccelByBEverywhere) {
   }
 }
 
+TEST(Effects, AccelScaleMultipliesTheCgAcceleration) {
+  // Catches a scale applied to the truth, to the bias/noise terms, or in the wrong unit:
+  // a_y,meas,on - a_y,meas,off = k_a a_y (2.5 %).
+  const auto p = RunPair([](config::SimEffects& e) { e.accel_scale_pct = 2.5; });
+  ExpectSameTruth(p);
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    for (size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(b.a_y_meas_mps2[i] - a.a_y_meas_mps2[i], 0.025 * a.a_y_mps2[i], 1e-12);
+  }
+}
+
 TEST(Effects, GyroOffsetAndScaleFollowTheirEquationEverywhere) {
   // Catches a gyro error applied to the truth, only while moving, or with the wrong unit:
   // r_meas,on - r_meas,off = k_r r + r0 (0.4 deg/s, 2 %), also at standstill.

@@ -27,6 +27,7 @@ struct SimEffects {
   double speed_scale_pct = 0.0;          // v_meas = (1 + eps) * v (wheel speeds and odometer too)
   double gyro_offset_degps = 0.0;        // yaw-rate sensor: r_meas = (1 + k_r) r + r0, r0 here
   double gyro_scale_pct = 0.0;           // k_r * 100
+  double accel_scale_pct = 0.0;          // accelerometer: a_y,meas = (1 + k_a) a_y + ..., k_a * 100
   double mass_change_kg = 0.0;           // per drive: m_i = m + U(-dm, +dm) (Jz scaled with m_i/m)
   std::vector<double> mass_schedule_kg;  // if non-empty: m_i = m + schedule[i % size] (overrides)
 

@@ -44,6 +44,9 @@ struct EffectInfo {
   // Acts only through the yaw-rate measurement (and what reads the measured yaw rate, road_bank's
   // observer): gyro_offset, gyro_scale. Not a default candidate of the a_y-only diagnosis.
   bool yaw_rate_sensor = false;
+  // Identifiable only with the yaw rate as an output (accel_scale: from a_y alone it trades with
+  // is). Not a default candidate of the a_y-only diagnosis either.
+  bool needs_yaw_rate_output = false;
 };
 
 // Measured inputs of one stretch, read at fractional sample positions (for time shifts).

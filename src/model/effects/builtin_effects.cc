@@ -22,6 +22,7 @@ const std::vector<std::pair<std::string, Factory>>& Table() {
       {"relaxation", MakeRelaxation},
       {"tyre_saturation", MakeTyreSaturation},
       {"accel_bias", MakeAccelBias},           // measurement
+      {"accel_scale", MakeAccelScale},
       {"lever_arm", MakeLeverArm},
       {"roll", MakeRoll},
       {"gyro_offset", MakeGyroOffset},         // yaw-rate measurement (offset before scale)

@@ -22,6 +22,7 @@ std::shared_ptr<const Effect> MakeLeverArm();
 std::shared_ptr<const Effect> MakeRoll();
 std::shared_ptr<const Effect> MakeGyroOffset();
 std::shared_ptr<const Effect> MakeGyroScale();
+std::shared_ptr<const Effect> MakeAccelScale();
 // The built-in effect of that name, nullptr if none.
 std::shared_ptr<const Effect> MakeBuiltinEffect(const std::string& name);
 // An effect stated as a formula (model.formulas); throws ConfigError (see EffectLibrary).
