@@ -120,7 +120,11 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                   [&](const std::string& c) { return std::find(present.begin(), present.end(), c) != present.end(); }),
                    candidates.end());
-  if (options.candidates.empty()) {  // yaw-rate sensor effects: not scored on a_y alone (issue 11 item 4)
+  // Two outputs (identification.outputs [a_y, yaw_rate]): the score tests stack both outputs'
+  // residuals, each weighted by 1/sqrt(its noise level), as the fit does; yaw-rate sensor effects
+  // and the ones that need the yaw rate are then candidates too.
+  const bool two_outputs = identifier.config().yaw_rate_output;
+  if (options.candidates.empty() && !two_outputs) {  // a_y alone: yaw-rate sensor effects are not scored
     candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                     [&](const std::string& c) {
                                       const auto builtin = model::BuiltinEffectNames();
@@ -174,11 +178,46 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   std::vector<Eigen::VectorXd> chunk_sig_xe;
   std::vector<double> chunk_e_sum, chunk_n;
   std::vector<std::vector<double>> sig_values(kNumSignatures);
+  // Output weights (two outputs): 1/sqrt(sigma^2 tau) of each output's residuals at params.
+  double w_a = 1.0, w_r = 1.0;
+  bool stacked = false;
+  if (two_outputs) {
+    std::vector<std::vector<double>> ra, rr;
+    for (const Chunk& c : chunks) {
+      const size_t burn = BurnInSamples(c, cfg.burn_in_s);
+      std::vector<double> e, jac;
+      EvaluateChunk(c, burn, identifier.wheelbase_m(), spec, params, e, jac, true);
+      const size_t na = c.n - burn;
+      ra.emplace_back(e.begin(), e.begin() + static_cast<long>(std::min(na, e.size())));
+      if (e.size() > na) rr.emplace_back(e.begin() + static_cast<long>(na), e.end());
+    }
+    const double la = ResidualNoiseLevel(ra), lr = ResidualNoiseLevel(rr);
+    if (la > 0 && lr > 0 && std::isfinite(la) && std::isfinite(lr)) {
+      w_a = 1.0 / std::sqrt(la);
+      w_r = 1.0 / std::sqrt(lr);
+      stacked = true;
+      d.outputs = "a_y and yaw rate";
+    }
+  }
+  double rss_a = 0;    // a_y, unweighted
+  double rss_sig = 0;  // a_y as scored (weighted)
+  size_t n_a_total = 0;
   for (const Chunk& c : chunks) {
     const size_t burn = BurnInSamples(c, cfg.burn_in_s);
     std::vector<double> e, jac;
-    EvaluateChunk(c, burn, identifier.wheelbase_m(), big, x, e, jac);
+    EvaluateChunk(c, burn, identifier.wheelbase_m(), big, x, e, jac, stacked);
+    const size_t n_rows_a = std::min(c.n - burn, e.size());
+    for (size_t k = 0; k < n_rows_a; ++k) rss_a += e[k] * e[k];
+    n_a_total += n_rows_a;
+    if (stacked) {
+      for (size_t k = 0; k < e.size(); ++k) {
+        const double w = k < n_rows_a ? w_a : w_r;
+        e[k] *= w;
+        for (int j = 0; j < np; ++j) jac[k * static_cast<size_t>(np) + static_cast<size_t>(j)] *= w;
+      }
+    }
     const int m = static_cast<int>(e.size());
+    for (size_t k = 0; k < n_rows_a; ++k) rss_sig += e[k] * e[k];
     Eigen::Map<const RowMajor> A(jac.data(), m, np);
     Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
     M += A.transpose() * A;
@@ -191,7 +230,7 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
     chunk_residuals.push_back(e);
     Eigen::VectorXd xe = Eigen::VectorXd::Zero(kNumSignatures);
     double esum = 0;
-    for (int k = 0; k < m; ++k) {
+    for (int k = 0; k < static_cast<int>(n_rows_a); ++k) {
       const size_t kk = burn + static_cast<size_t>(k);
       const double v = c.samples[kk].speed_mps;
       const double w = v * v / (identifier.wheelbase_m() + eg * v * v);
@@ -210,7 +249,7 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   }
   d.residuals = n;
   if (n == 0) return d;
-  d.rmse = std::sqrt(rss / static_cast<double>(n));
+  d.rmse = n_a_total > 0 ? std::sqrt(rss_a / static_cast<double>(n_a_total)) : 0.0;  // a_y, unweighted
   // Standstill evidence (docs/two-outputs.md): each prior Identify would use becomes one
   // pseudo-observation sqrt(w) (value - x) / sd of its parameter, in the a_y residuals' units (w
   // their noise level sigma^2 tau), and its own cluster in the robust variance. So a standing
@@ -294,15 +333,20 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   if (load.active) {
     d.ranked.push_back(load.Score(JtJ, Jte, fitted, rss, n, chunk_residuals, options.z_threshold));
   }
+  // The a_y RMSE a candidate predicts: the stacked (weighted) RSS falls by drss, the a_y RMSE in
+  // proportion (with one output exactly sqrt((rss - drss) / n)).
+  for (CandidateScore& c : d.ranked) c.rmse_predicted = rss > 0 ? d.rmse * std::sqrt(std::max(0.0, 1.0 - c.drss / rss)) : 0.0;
   std::sort(d.ranked.begin(), d.ranked.end(), [](const auto& a, const auto& b) { return a.drss > b.drss; });
 
   // Residual correlations with the signature signals (centred), clustered by chunk.
-  const double mean_e = sum_e / static_cast<double>(n);
+  // (On the a_y residuals: weighted as scored, the yaw-rate rows excluded.)
+  const double n_sig = static_cast<double>(n_a_total);
+  const double mean_e = n_sig > 0 ? sum_e / n_sig : 0.0;
   for (int s = 0; s < kNumSignatures; ++s) {
     SignatureCorrelation sc;
     sc.signal = kSignatures[s].name;
-    const double mean_x = sig_sums(s, 0) / static_cast<double>(n);
-    const double sxx = sig_sums(s, 1) - n * mean_x * mean_x;
+    const double mean_x = n_sig > 0 ? sig_sums(s, 0) / n_sig : 0.0;
+    const double sxx = sig_sums(s, 1) - n_sig * mean_x * mean_x;
     double sxe = 0, var = 0;
     for (size_t c = 0; c < chunk_sig_xe.size(); ++c) {
       // sum over chunk of (x - mean_x)(e - mean_e) = xe - mean_x*esum - mean_e*sum_x + n mean_x mean_e; use
@@ -311,8 +355,8 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
       sxe += part;
       var += part * part;
     }
-    if (sxx > 0 && rss > 0) {
-      const double see = rss - n * mean_e * mean_e;
+    if (sxx > 0 && rss_sig > 0) {
+      const double see = rss_sig - n_sig * mean_e * mean_e;
       sc.correlation = sxe / std::sqrt(sxx * std::max(see, 1e-300));
       sc.drss = sxe * sxe / sxx;
       sc.z_robust = var > 0 ? sxe / std::sqrt(var) : 0.0;
@@ -382,6 +426,9 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
   }
   ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});
   auto held_out = [](const IdentificationResult& r) { return r.rmse_validation_mps2 >= 0 ? r.rmse_validation_mps2 : r.rmse_train_mps2; };
+  auto held_out_yaw = [](const IdentificationResult& r) {
+    return r.rmse_validation_yaw_radps >= 0 ? r.rmse_validation_yaw_radps : r.rmse_train_yaw_radps;
+  };
   for (int step = 0; step < options.max_steps; ++step) {
     Diagnosis diag = Diagnose(current, fit.AllValues(), training, options.diagnosis);
     ladder.diagnoses.push_back(diag);
@@ -400,12 +447,24 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       IdentificationResult f2 = next.Identify(training, validation, std::optional<std::vector<double>>(warm));
       if (!f2.valid) continue;
       const double before = held_out(fit), after = held_out(f2);
-      // BIC with an effective sample size (residuals are autocorrelated): n_eff = n / tau.
+      // BIC with an effective sample size (residuals are autocorrelated): n_eff = n / tau; with
+      // two outputs each output's term, on its own residuals.
       const double n_eff = static_cast<double>(f2.residuals_train) / 25.0;
-      const double dbic = n_eff * std::log((f2.rmse_train_mps2 * f2.rmse_train_mps2) / (fit.rmse_train_mps2 * fit.rmse_train_mps2)) +
-                          (f2.effect_params.size() - fit.effect_params.size()) * std::log(std::max(n_eff, 2.0));
+      const bool both = fit.yaw_rate_output && f2.yaw_rate_output && fit.rmse_train_yaw_radps > 0 && f2.rmse_train_yaw_radps > 0;
+      const double n_eff_r = both ? static_cast<double>(f2.residuals_train_yaw) / 25.0 : 0.0;
+      double dbic = n_eff * std::log((f2.rmse_train_mps2 * f2.rmse_train_mps2) / (fit.rmse_train_mps2 * fit.rmse_train_mps2)) +
+                    (f2.effect_params.size() - fit.effect_params.size()) * std::log(std::max(n_eff + n_eff_r, 2.0));
+      if (both) dbic += n_eff_r * std::log((f2.rmse_train_yaw_radps * f2.rmse_train_yaw_radps) / (fit.rmse_train_yaw_radps * fit.rmse_train_yaw_radps));
+      // Effect size on held-out data: one output falls by min_relative_improvement, the other
+      // does not rise by more than 1 % (a gyro error shows in the yaw rate, a roll in a_y).
+      bool better = after < before * (1.0 - options.min_relative_improvement);
+      if (both) {
+        const double yb = held_out_yaw(fit), ya = held_out_yaw(f2);
+        spdlog::info("ladder: + {}: held-out yaw-rate RMSE {:.4f} -> {:.4f} deg/s", c.effect, yb * 180 / M_PI, ya * 180 / M_PI);
+        better = (better && ya < 1.01 * yb) || (ya < yb * (1.0 - options.min_relative_improvement) && after < 1.01 * before);
+      }
       spdlog::info("ladder: + {}: held-out RMSE {:.4f} -> {:.4f}, dBIC {:.1f}", c.effect, before, after, dbic);
-      if (after < before * (1.0 - options.min_relative_improvement) && dbic < 0) {
+      if (better && dbic < 0) {
         effects = trial;
         current = next;
         fit = f2;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <utility>
 
+#include "ndsid/discover/diagnosis.h"
 #include "ndsid/identify/chunks.h"
 #include "ndsid/identify/identifier.h"
 #include "synthetic_segments.h"
@@ -269,6 +270,41 @@ TEST(GyroEffects, AutodiffJacobianMatchesNumericDifferences) {
     EXPECT_GT(max_abs, 0.0) << spec.param_name(static_cast<int>(i)) << " has no effect on the outputs";
     EXPECT_LT(max_err, 1e-4 * max_abs) << spec.param_name(static_cast<int>(i));
   }
+}
+
+}  // namespace
+}  // namespace ndsid::identify
+
+namespace ndsid::identify {
+namespace {
+
+// Catches: a two-output diagnosis that scores a_y alone (a gyro offset leaves nothing in a_y
+// without road_bank, so it could not rank), mis-weights the stacked rows, or leaves yaw-rate
+// sensor effects out of the candidates. Synthetic segments with a hidden gyro offset, model
+// without it: gyro_offset is ranked first and significant, its one-step estimate near the truth;
+// with a_y alone it is not a default candidate.
+TEST(TwoOutputDiagnosis, GyroOffsetRankedFirstOnTheStackedResiduals) {
+  const double r0 = -0.3 * kDeg;
+  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"gyro_offset"});
+  std::vector<double> truth = BaseTruth();
+  truth.push_back(r0);
+  const auto train = SyntheticTwoOutputSegments(truth_spec, truth, 12, 60, kNoiseA, kNoiseR, 91);
+  const Identifier two(Cfg(true), kWheelbase, model::ModelSpec());
+  const IdentificationResult fit = two.Identify(Pointers(train), {});
+  ASSERT_TRUE(fit.valid) << fit.reason;
+  const discover::Diagnosis d = discover::Diagnose(two, fit.AllValues(), Pointers(train));
+  ASSERT_FALSE(d.ranked.empty());
+  std::printf("two outputs (%s): first %s dRSS %.3g z %+.1f one-step %+.4f deg/s\n", d.outputs.c_str(),
+              d.ranked[0].effect.c_str(), d.ranked[0].drss, d.ranked[0].z_robust, d.ranked[0].one_step / kDeg);
+  EXPECT_EQ(d.outputs, "a_y and yaw rate");
+  EXPECT_EQ(d.ranked[0].effect, "gyro_offset");
+  EXPECT_TRUE(d.ranked[0].significant);
+  EXPECT_NEAR(d.ranked[0].one_step, r0, 0.1 * std::abs(r0));
+
+  const Identifier one(Cfg(false), kWheelbase, model::ModelSpec());
+  const discover::Diagnosis a = discover::Diagnose(one, one.Identify(Pointers(train), {}).AllValues(), Pointers(train));
+  EXPECT_EQ(a.outputs, "a_y");
+  for (const auto& c : a.ranked) EXPECT_NE(c.effect, "gyro_offset") << "not scored on a_y alone";
 }
 
 }  // namespace

@@ -23,6 +23,7 @@ struct HiddenCase {
   double tolerance;
   double steer_skew_s = 0;              // hidden steering skew, found by step 0 (time alignment)
   bool align = true;                    // run step 0
+  bool two_outputs = false;             // identification.outputs [a_y, yaw_rate]
 };
 
 void PrintDiagnosis(const discover::Diagnosis& d) {
@@ -35,7 +36,8 @@ void PrintDiagnosis(const discover::Diagnosis& d) {
 
 void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   const SimulatedRun run = SimulateAndReplay(c.name, seed, hours, c.simulated);
-  const auto& cfg = run.config->identification;
+  config::IdentificationConfig cfg = run.config->identification;
+  cfg.yaw_rate_output = c.two_outputs;
   discover::LadderOptions options;
   options.align = c.align;
   if (!std::getenv("NO_STANDSTILL")) options.standstill = run.window.standstill;  // as ndsid diagnose does
@@ -92,6 +94,16 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   const double floor = NoiseFloor(run, model::ModelSpec::FromNames(truth_effects));
   std::printf("  validation RMSE %.4f, noise floor %.4f\n", final_fit.rmse_validation_mps2, floor);
   EXPECT_LT(final_fit.rmse_validation_mps2, 1.10 * floor);
+  if (c.two_outputs) {
+    // Both outputs at their floors: the yaw rate's too (the true model's held-out yaw-rate RMSE).
+    const model::ModelSpec truth_spec = model::ModelSpec::FromNames(truth_effects);
+    const identify::Identifier truth_model(cfg, run.config->vehicle.wheelbase_m, truth_spec);
+    const double floor_r = truth_model.RmseYawRate(TruthVector(run, truth_spec), run.window.validation);
+    std::printf("  validation yaw-rate RMSE %.4f deg/s, noise floor %.4f deg/s\n", final_fit.rmse_validation_yaw_radps * 180 / M_PI,
+                floor_r * 180 / M_PI);
+    ASSERT_TRUE(final_fit.yaw_rate_output);
+    EXPECT_LT(final_fit.rmse_validation_yaw_radps, 1.10 * floor_r);
+  }
   if (!c.expected.empty()) EXPECT_LT(final_fit.rmse_validation_mps2, ladder.rungs.front().fit.rmse_validation_mps2);
   // The effect's parameter is recovered; EG's bias from the hidden effect is gone: EG within 1 %
   // of the truth (the clean model is unbiased to ~0.1 %, docs/accuracy.md).

@@ -37,7 +37,8 @@ struct SignatureCorrelation {
 
 struct Diagnosis {
   std::string model;
-  double rmse = 0;
+  std::string outputs = "a_y";  // the residuals scored: "a_y", or "a_y and yaw rate" (stacked, weighted)
+  double rmse = 0;              // a_y, unweighted
   size_t residuals = 0;
   std::vector<CandidateScore> ranked;  // by drss, largest first
   std::vector<SignatureCorrelation> signatures;  // by drss
