@@ -5,6 +5,7 @@
 #include "vehicle_init.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -60,7 +61,9 @@ class SimulatedBus : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = fs::path(NDSID_BINARY_DIR) / "tests" / "desk" / "vehicle_init_sim";
     fs::create_directories(dir_);
-    log_ = (dir_ / "drive.log").string();
+    // One log per test process: ctest runs each test as its own process, in parallel (-j2), and
+    // a shared file would be rewritten under another process's reader.
+    log_ = (dir_ / ("drive." + std::to_string(::getpid()) + ".log")).string();
     example_dbc_ = ReadText(std::string(NDSID_SOURCE_DIR) + "/dbc/ndsid_example.dbc");
     config::SimulationConfig cfg;  // config/sim_cmax.yaml's defaults
     cfg.seed = 5;
@@ -69,6 +72,10 @@ class SimulatedBus : public ::testing::Test {
     sim::CandumpLogWriter writer(db, cfg, log_);
     sim::SimulateDrives(cfg, [&](sim::DriveResult&& d) { writer.WriteDrive(d); });
     writer.Close();
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    fs::remove(log_, ec);
   }
   static fs::path dir_;
   static std::string log_;
