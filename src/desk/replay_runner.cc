@@ -199,6 +199,11 @@ std::string WriteReport(const std::string& dir, const config::Config& config, co
   nlohmann::json j = outcome.final_estimate ? EstimateJson(config, *outcome.final_estimate) : nlohmann::json::object();
   if (outcome.truth_eg) j["truth_eg_rad_per_mps2"] = *outcome.truth_eg;
   j["frames"] = outcome.source.frames;
+  {
+    const auto& tb = pipeline.time_base().counters();
+    j["clock"] = {{"spikes_dropped", tb.spikes_dropped}, {"steps_back", tb.steps_back}, {"steps_forward", tb.steps_forward},
+                  {"shift_ns", tb.shift_ns}};
+  }
   j["malformed_lines"] = outcome.source.malformed;
   WriteText(d / "estimate.json", j.dump(2) + "\n");
 
@@ -337,6 +342,12 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
     if (fe.standstill.empty() && fe.standstill_stops < identify::Identifier::kMinStops)
       std::printf(" (fewer than %zu: no evidence used)", identify::Identifier::kMinStops);
     std::printf("\n");
+  }
+  const auto& tb = pipeline.time_base().counters();
+  if (tb.spikes_dropped || tb.steps_back || tb.steps_forward) {
+    std::printf("  clock: %llu frame(s) dropped as time spikes, %llu step(s) back (new time base), %llu jump(s) forward (gaps)\n",
+                static_cast<unsigned long long>(tb.spikes_dropped), static_cast<unsigned long long>(tb.steps_back),
+                static_cast<unsigned long long>(tb.steps_forward));
   }
   std::printf("  report: %s\n", report_path.c_str());
   if (outcome.periodic_fit_wall_s > 5 && outcome.periodic_fit_wall_s > 0.5 * outcome.wall_s) {

@@ -17,6 +17,10 @@ constexpr double kWheelCheckMinSpeed_mps = 2.0;
 
 Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
     : config_(config),
+      // A clock step back continues the drive after a gap the sync stage does not fill and the
+      // gate does not take for a new drive: the segment is cut, the drive goes on.
+      time_base_(static_cast<int64_t>(1e9 * std::clamp(2 * config.sync.max_fill_gap_s + 1.0, 2.0,
+                                                         std::max(2.0, 0.5 * config.gate.drive_gap_s)))),
       sync_(config),
       extractor_(config, db),
       gate_(config.gate, 1.0 / config.sync.rate_hz),
@@ -25,6 +29,7 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
       identifier_(config.identification, config.vehicle.wheelbase_m, model::ModelSpec::FromNames(config.model_effects, library_)),
       adequacy_(config.adequacy) {
   samples_.reserve(1024);
+  timed_.reserve(sync::TimeBase::kConfirm + 2);
   // model.priors must name a parameter of the base model, of a library effect or of a formula.
   if (config.identification.priors.empty()) return;
   std::vector<std::string> known;
@@ -43,11 +48,28 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
 }
 
 void Pipeline::ProcessFrames(std::span<const can::CanFrame> frames, const std::vector<std::string>& bus_names) noexcept {
-  for (const can::CanFrame& f : frames) {
+  for (const can::CanFrame& raw : frames) {
     ++frames_;
-    if (f.timestamp_ns > data_time_ns_) data_time_ns_ = f.timestamp_ns;
-    sync_.Advance(f.timestamp_ns, samples_);
-    extractor_.Process(f, bus_names, sync_);
+    timed_.clear();
+    const sync::TimeBaseCounters before = time_base_.counters();
+    time_base_.Push(raw, timed_);  // at most kConfirm + 1 frames: within the reserved capacity
+    const sync::TimeBaseCounters& now = time_base_.counters();
+    if (now.spikes_dropped != before.spikes_dropped || now.steps_back != before.steps_back) {
+      const uint64_t events = now.spikes_dropped + now.steps_back;
+      if (events <= 10) {  // the first few, then the counters tell
+        if (now.steps_back != before.steps_back)
+          spdlog::warn("clock stepped back at t = {:.3f} s: a new time base (stamps shifted by {:.3f} s), the drive goes on",
+                       1e-9 * static_cast<double>(raw.timestamp_ns), 1e-9 * static_cast<double>(now.shift_ns));
+        else
+          spdlog::warn("clock spike: {} frame(s) stamped more than 1 s off the time base dropped (near t = {:.3f} s)",
+                       now.spikes_dropped - before.spikes_dropped, 1e-9 * static_cast<double>(raw.timestamp_ns));
+      }
+    }
+    for (const can::CanFrame& f : timed_) {
+      if (f.timestamp_ns > data_time_ns_) data_time_ns_ = f.timestamp_ns;
+      sync_.Advance(f.timestamp_ns, samples_);
+      extractor_.Process(f, bus_names, sync_);
+    }
     if (samples_.size() >= 512) ConsumeSamples();
   }
   ConsumeSamples();
@@ -82,6 +104,7 @@ void Pipeline::ConsumeSamples() noexcept {
 }
 
 void Pipeline::Finish() {
+  time_base_.Finish();
   sync_.Flush(samples_);
   ConsumeSamples();
   gate_.Finish();

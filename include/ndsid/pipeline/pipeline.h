@@ -23,6 +23,7 @@
 #include "ndsid/stats/accumulator.h"
 #include "ndsid/sync/role_extractor.h"
 #include "ndsid/sync/signal_sync.h"
+#include "ndsid/sync/time_base.h"
 
 namespace ndsid::pipeline {
 
@@ -86,6 +87,8 @@ class Pipeline {
   const model::EffectLibrary& library() const { return library_; }
   const gate::Gate& gate() const { return gate_; }
   const sync::SignalSync& sync() const { return sync_; }
+  // Clock faults handled before the sync stage (spikes dropped, steps back rebased).
+  const sync::TimeBase& time_base() const { return time_base_; }
   const sync::RoleExtractor& extractor() const { return extractor_; }
   const stats::Accumulator& accumulator() const { return accumulator_; }
   const adequacy::Tracker& adequacy() const { return adequacy_; }
@@ -116,6 +119,8 @@ class Pipeline {
   void ConsumeSamples() noexcept;
 
   const config::Config& config_;
+  sync::TimeBase time_base_;  // after config_: its new-base gap comes from the configuration
+  std::vector<can::CanFrame> timed_;  // the frames TimeBase lets through (capacity kept)
   sync::SignalSync sync_;
   sync::RoleExtractor extractor_;
   gate::Gate gate_;
