@@ -182,7 +182,8 @@ void CheckWheelSpeed(const std::map<int64_t, SpeedSums>& by_drive, const config:
                      PlausibilityReport& report) {
   if (by_drive.empty()) return;
   SpeedSums all;
-  for (const auto& [id, s] : by_drive) {
+  for (const auto& [drive_id, s] : by_drive) {
+    const int64_t id = drive_id;  // a copy: clang cannot capture a structured binding
     all.sww += s.sww, all.svw += s.svw, all.svv += s.svv, all.seconds += s.seconds;
     all.t0_ns = std::min(all.t0_ns, s.t0_ns);
     const Check c = WheelSpeedCheck(s, q);

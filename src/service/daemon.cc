@@ -149,7 +149,10 @@ struct Daemon::Impl {
   }
 
   void LoadState() {
+    if (const int n = store->RemoveTemporaries(); n > 0)
+      spdlog::info("state: removed {} temporary file(s) an interrupted write left in {}", n, cfg().state_dir);
     StateStore::LoadResult r = store->Load();
+    if (r.unreadable) throw ConfigError("state: " + r.message);  // exit 78: no restart loop
     if (!r.state) {
       if (r.message.find("moved aside") != std::string::npos) {
         spdlog::warn("{}", r.message);

@@ -386,7 +386,9 @@ StateStore::LoadResult StateStore::Load() {
   try {
     bytes = ReadWholeFile(path_);
   } catch (const Error& e) {
-    r.message = std::string("cannot read learned state (") + e.what() + "): starting fresh, file left in place";
+    r.unreadable = true;
+    r.message = "learned state " + path_ + " exists but cannot be read (" + e.what() +
+                "): stopping rather than overwriting it; fix its permissions (the service's user must read it) or move it away";
     return r;
   }
   try {
@@ -398,6 +400,19 @@ StateStore::LoadResult StateStore::Load() {
     r.message = std::string(e.what()) + ": moved aside to " + (moved.empty() ? "(move failed)" : moved) + ", starting fresh";
   }
   return r;
+}
+
+int StateStore::RemoveTemporaries() const {
+  const std::string prefix = "." + std::filesystem::path(path_).filename().string() + ".tmp";
+  std::error_code ec;
+  int removed = 0;
+  for (std::filesystem::directory_iterator it(dir_, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    std::error_code rm;
+    if (std::filesystem::remove(it->path(), rm)) ++removed;
+  }
+  return removed;
 }
 
 void StateStore::Save(const LearnedState& state) const {

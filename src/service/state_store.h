@@ -66,9 +66,15 @@ class StateStore {
   struct LoadResult {
     std::optional<LearnedState> state;  // empty: start fresh
     std::string message;                // what happened, for the log
+    // The file exists but cannot be read (permissions, I/O error): the daemon stops rather than
+    // start fresh and overwrite what it learned at the first persist.
+    bool unreadable = false;
   };
   // Never throws for a bad file: it is moved aside (Quarantine) and reported in `message`.
   LoadResult Load();
+  // Removes the temporary files an interrupted atomic write of this state left in state_dir
+  // (".<file>.tmp<pid>.<n>"); returns how many.
+  int RemoveTemporaries() const;
   // Atomic write (creates state_dir); throws ndsid::Error.
   void Save(const LearnedState& state) const;
   // Moves the file aside as <path>.<tag>-<UTC time>; returns the new path ("" when it failed).

@@ -224,6 +224,37 @@ TEST_F(StateTest, StoreMovesCorruptFileAsideAndStartsFresh) {
   EXPECT_EQ(corrupt, 1) << r.message;
 }
 
+// Catches: a state that exists but cannot be read replaced by a fresh one at the first persist
+// (the learned state lost). A directory at the file's path stands for EACCES/EIO (the same read
+// path; root reads a mode-000 file anyway).
+TEST_F(StateTest, UnreadableStateIsReportedAndLeftAlone) {
+  service::StateStore store(dir_.string(), config_.vehicle.name);
+  fs::create_directories(store.path());
+  const auto r = store.Load();
+  EXPECT_FALSE(r.state);
+  EXPECT_TRUE(r.unreadable);
+  EXPECT_NE(r.message.find("exists but cannot be read"), std::string::npos) << r.message;
+  EXPECT_TRUE(fs::is_directory(store.path())) << "left in place";
+  // A missing file is not unreadable: start fresh.
+  fs::remove(store.path());
+  EXPECT_FALSE(store.Load().unreadable);
+}
+
+// Catches: temporary files of interrupted writes piling up in state_dir, or other files removed.
+TEST_F(StateTest, TemporariesOfInterruptedWritesAreRemoved) {
+  service::StateStore store(dir_.string(), config_.vehicle.name);
+  store.Save(MakeState());
+  const std::string name = fs::path(store.path()).filename().string();
+  for (const std::string& t : {"." + name + ".tmp123.0", "." + name + ".tmp99999.7"}) WriteFileAtomically((dir_ / t).string(), "x");
+  WriteFileAtomically((dir_ / "notes.txt").string(), "keep");
+  WriteFileAtomically((dir_ / ".other.ndsid-state.tmp1.0").string(), "another vehicle's write");
+  EXPECT_EQ(store.RemoveTemporaries(), 2);
+  EXPECT_TRUE(fs::exists(store.path()));
+  EXPECT_TRUE(fs::exists(dir_ / "notes.txt"));
+  EXPECT_TRUE(fs::exists(dir_ / ".other.ndsid-state.tmp1.0"));
+  EXPECT_TRUE(store.Load().state);
+}
+
 TEST_F(StateTest, StoreNeverLoadsAnotherVehiclesFileAndKeepsIt) {
   // Two names that map to the same file name: the header tells them apart.
   service::StateStore mine(dir_.string(), "car/1");

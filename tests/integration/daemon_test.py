@@ -404,6 +404,42 @@ def CorruptStateIsQuarantined():
         case.cleanup()
 
 
+def UnreadableStateStopsAndIsKept():
+    case = Case("unreadable", drives=1, drive_s=200)
+    try:
+        cfg = case.config()
+        first = case.run(cfg)
+        check(first.returncode == 0, first.stderr)
+        state = os.path.join(case.dir, "state")
+        path = os.path.join(state, "daemon-test-car.ndsid-state")
+        # A temporary file of an interrupted write: removed at start.
+        tmp = os.path.join(state, ".daemon-test-car.ndsid-state.tmp4242.0")
+        with open(tmp, "wb") as f:
+            f.write(b"half a state")
+        p = case.run(cfg)
+        check(p.returncode == 0, p.stderr)
+        check(not os.path.exists(tmp), "temporary file of an interrupted write left in state_dir")
+        before = open(path, "rb").read()
+        if os.geteuid() == 0:  # root reads a mode-000 file: a directory stands for EACCES/EIO
+            os.rename(path, path + ".saved")
+            os.mkdir(path)
+        else:
+            os.chmod(path, 0)
+        p = case.run(cfg)
+        print("exit", p.returncode, "|", [l for l in p.stderr.splitlines() if "cannot be read" in l][:1])
+        check(p.returncode == 78, f"exit {p.returncode}: an unreadable state must stop the daemon with 78 (no restart loop)")
+        check("exists but cannot be read" in p.stderr, "the reason is not reported")
+        if os.geteuid() == 0:
+            check(os.path.isdir(path), "the unreadable state was replaced")
+            os.rmdir(path)
+            os.rename(path + ".saved", path)
+        else:
+            os.chmod(path, 0o600)
+        check(open(path, "rb").read() == before, "the learned state changed")
+    finally:
+        case.cleanup()
+
+
 def ForeignVehicleStateIsNotLoaded():
     case = Case("foreign", drives=1, drive_s=200)
     try:
