@@ -445,7 +445,15 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       next.set_drive_loads(fit.drive_loads);  // load_change: start from the current ratios
       std::vector<double> warm = Extend(current.spec(), fit.AllValues(), next.spec());
       IdentificationResult f2 = next.Identify(training, validation, std::optional<std::vector<double>>(warm));
-      if (!f2.valid) continue;
+      Trial trial_record;
+      trial_record.step = step;
+      trial_record.effect = c.effect;
+      trial_record.held_out_before = held_out(fit);
+      if (!f2.valid) {
+        trial_record.why = "fit not valid: " + f2.reason;
+        ladder.trials.push_back(trial_record);
+        continue;
+      }
       const double before = held_out(fit), after = held_out(f2);
       // BIC with an effective sample size (residuals are autocorrelated): n_eff = n / tau; with
       // two outputs each output's term, on its own residuals.
@@ -464,6 +472,24 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
         better = (better && ya < 1.01 * yb) || (ya < yb * (1.0 - options.min_relative_improvement) && after < 1.01 * before);
       }
       spdlog::info("ladder: + {}: held-out RMSE {:.4f} -> {:.4f}, dBIC {:.1f}", c.effect, before, after, dbic);
+      trial_record.held_out_after = after;
+      trial_record.delta_bic = dbic;
+      if (both) trial_record.yaw_before = held_out_yaw(fit), trial_record.yaw_after = held_out_yaw(f2);
+      trial_record.accepted = better && dbic < 0;
+      {
+        char why[256];
+        const double rel = 100 * (after / before - 1);
+        if (trial_record.accepted) {
+          std::snprintf(why, sizeof why, "added: held-out RMSE %+.1f %%, dBIC %.1f", rel, dbic);
+        } else if (!better) {
+          std::snprintf(why, sizeof why, "rejected: held-out RMSE %+.1f %% (needs %+.1f %%%s)", rel,
+                        -100 * options.min_relative_improvement, both ? " on one output, the other <= +1 %" : "");
+        } else {
+          std::snprintf(why, sizeof why, "rejected: dBIC %+.1f (needs < 0) although the held-out RMSE fell %+.1f %%", dbic, rel);
+        }
+        trial_record.why = why;
+      }
+      ladder.trials.push_back(trial_record);
       if (better && dbic < 0) {
         effects = trial;
         current = next;
@@ -475,7 +501,14 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       }
     }
     if (!improved) {
-      ladder.stop_reason = tried == 0 ? "no significant candidate left" : "no candidate improved the held-out RMSE";
+      if (tried == 0) {
+        ladder.stop_reason = "no significant candidate left";
+      } else {
+        ladder.stop_reason = "no candidate improved the held-out RMSE enough (tried:";
+        for (const Trial& t : ladder.trials)
+          if (t.step == step) ladder.stop_reason += " " + t.effect + (&t == &ladder.trials.back() ? "" : ",");
+        ladder.stop_reason += ")";
+      }
       break;
     }
   }

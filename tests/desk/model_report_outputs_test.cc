@@ -104,6 +104,32 @@ TEST(Diagnose, LadderAddsSteerOffsetAndHeldOutRmseFalls) {
   EXPECT_EQ(j["final_effects"][0], "steer_offset");
 }
 
+// Catches: a stop message that contradicts the log (candidates tried and rejected but not
+// listed): every refit is in diagnosis.json with its numbers and why; the stop names them.
+TEST(Diagnose, EveryRefittedCandidateIsListedWithWhy) {
+  const auto j = ReadJson(kOut / "diagnose_out" / "diagnosis.json");
+  ASSERT_TRUE(j.contains("trials")) << j.dump(1);
+  const auto& trials = j["trials"];
+  ASSERT_FALSE(trials.empty());
+  int accepted = 0;
+  for (const auto& t : trials) {
+    const std::string why = t["why"];
+    const bool ok = t["accepted"];
+    accepted += ok;
+    EXPECT_EQ(why.rfind(ok ? "added" : "rejected", 0), 0u) << why;
+    if (!ok && t["held_out_after_mps2"].get<double>() > 0.97 * t["held_out_before_mps2"].get<double>())
+      EXPECT_NE(why.find("needs -3.0 %"), std::string::npos) << why;
+  }
+  EXPECT_EQ(accepted, static_cast<int>(j["ladder"].size()) - 1) << "each added rung is an accepted trial";
+  const std::string stop = j["stop_reason"];
+  if (stop.rfind("no candidate improved", 0) == 0) {
+    for (const auto& t : trials)
+      if (t["step"] == trials.back()["step"]) EXPECT_NE(stop.find(t["effect"].get<std::string>()), std::string::npos) << stop;
+  }
+  const std::string md = ReadWholeFile((kOut / "diagnose_out" / "diagnosis.md").string());
+  EXPECT_NE(md.find("### Candidates refitted"), std::string::npos);
+}
+
 TEST(Diagnose, ApplyWritesLadderEffectsIntoConfigAndChangesNothingElse) {
   const std::string before = ReadWholeFile(NDSID_APP_PRISTINE);
   const std::string after = ReadWholeFile((kOut / "applied_vehicle.yaml").string());

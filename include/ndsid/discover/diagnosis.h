@@ -83,8 +83,21 @@ struct LadderOptions {
   std::vector<gate::StandstillStop> standstill;
 };
 
+// One candidate refitted by the ladder: what it did to the held-out error, and why it was kept
+// or rejected (the stop message's "no candidate improved" lists these).
+struct Trial {
+  int step = 0;                 // rung it was tried on (0: the starting model)
+  std::string effect;
+  bool accepted = false;
+  double held_out_before = 0, held_out_after = 0;          // a_y [m/s^2]
+  double yaw_before = -1, yaw_after = -1;                  // yaw rate [rad/s], two outputs only
+  double delta_bic = 0;
+  std::string why;              // e.g. "held-out RMSE -1.2 % (needs -3 %)", "fit not valid: ..."
+};
+
 struct Ladder {
   std::vector<Rung> rungs;
+  std::vector<Trial> trials;    // every refit, in order
   std::vector<Diagnosis> diagnoses;  // the diagnosis made at each rung
   std::string stop_reason;
   std::vector<RoleLatency> alignment;      // step 0 (empty when not asked for)

@@ -209,6 +209,22 @@ int Run(const DiagnoseArgs& a) {
                            {"eg_deg_per_g", r.fit.eg_deg_per_g}, {"eg_se_deg_per_g", r.fit.eg_se_deg_per_g},
                            {"added_parameters", added}, {"delta_bic", r.delta_bic}});
   }
+  // Every candidate the ladder refitted, kept or not, and why.
+  if (!ladder.trials.empty()) {
+    std::printf("\ncandidates refitted by the ladder:\n");
+    md += "\n### Candidates refitted\n\n| rung | effect | held-out RMSE before → after | verdict |\n|---|---|---|---|\n";
+    j["trials"] = nlohmann::json::array();
+    for (const auto& t : ladder.trials) {
+      std::printf("  rung %d + %-16s %.4f -> %.4f  %s\n", t.step, t.effect.c_str(), t.held_out_before, t.held_out_after,
+                  t.why.c_str());
+      md += "| " + std::to_string(t.step) + " | " + t.effect + " | " + Fmt("%.4f", t.held_out_before) + " → " +
+            Fmt("%.4f", t.held_out_after) + " | " + t.why + " |\n";
+      j["trials"].push_back({{"step", t.step}, {"effect", t.effect}, {"accepted", t.accepted},
+                             {"held_out_before_mps2", t.held_out_before}, {"held_out_after_mps2", t.held_out_after},
+                             {"yaw_before_radps", t.yaw_before}, {"yaw_after_radps", t.yaw_after},
+                             {"delta_bic", t.delta_bic}, {"why", t.why}});
+    }
+  }
   const std::string out = a.out.empty() ? (fs::path(data->config.report_dir) / "diagnose").string() : a.out;
   fs::create_directories(out);
   WriteFileAtomically((fs::path(out) / "diagnosis.json").string(), j.dump(2) + "\n");
