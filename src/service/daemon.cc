@@ -134,11 +134,21 @@ struct Daemon::Impl {
 
   void ApplyLogLevel() { spdlog::set_level(spdlog::level::from_str(cfg().log_level)); }
 
+  // The monitor predicts with the fitted model, effects included (a model without effects: the
+  // linear one of SetParams).
+  void SetMonitorModel(const identify::IdentificationResult& fit) {
+    if (pipe().identifier().spec().effects().empty()) return;
+    auto id = std::make_shared<identify::Identifier>(pipe().identifier());
+    id->set_drive_loads(fit.drive_loads);
+    monitor->SetModel(std::move(id), fit.AllValues());
+  }
+
   void AttachMonitor() {
     const config::Config& c = cfg();
     monitor = std::make_unique<ModelMonitor>(c.vehicle.wheelbase_m, c.sync.rate_hz, c.lcm.monitor_rate_hz);
     const auto& last = pipe().last_estimate();
     monitor->SetParams(last && last->fit.valid ? std::optional(last->fit.AsParams()) : pipe().WarmStartBase());
+    if (last && last->fit.valid) SetMonitorModel(last->fit);
     // Decimated in data time by the monitor, then limited in wall-clock time: a fast replay
     // would otherwise flood the channel (thousands of messages per second, lost by receivers).
     monitor_limit = publish::WallRateLimiter(c.lcm.monitor_rate_hz);
@@ -263,6 +273,7 @@ struct Daemon::Impl {
                    e.fit.rmse_train_mps2, e.fit.rmse_validation_mps2, e.gated_hours, adequacy::StateName(e.adequacy.state),
                    (MonoNs() - j.started_ns) * 1e-9);
       monitor->SetParams(e.fit.AsParams());
+      SetMonitorModel(e.fit);
     }
     PublishEstimate();
     Notify("STATUS=" + StatusLine(pipe().last_estimate(), pipe()));

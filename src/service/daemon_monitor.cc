@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include "daemon_monitor.h"
+#include "ndsid/identify/model_output.h"
 #include "ndsid/model/simulate.h"
 
 namespace ndsid::service {
@@ -14,6 +15,37 @@ ModelMonitor::ModelMonitor(double wheelbase_m, double sync_rate_hz, double monit
 void ModelMonitor::SetParams(const std::optional<model::Params<double>>& params) {
   params_ = params;
   running_ = false;  // restart from the steady state with the new parameters
+}
+
+void ModelMonitor::SetModel(std::shared_ptr<const identify::Identifier> model, std::vector<double> params) {
+  model_ = std::move(model);
+  model_params_ = std::move(params);
+  if (model_ && model_->spec().effects().empty()) model_.reset();  // the linear model does the same, per sample
+  if (model_) {
+    window_.dt_s = 1.0 / model_->config().rate_hz;
+    window_decimation_ = std::max(1, static_cast<int>(std::lround(window_.dt_s / period_s_)));
+    window_.dt_s = window_decimation_ * period_s_;
+    window_.samples.clear();
+    window_.samples.reserve(2 * static_cast<size_t>(kWindow_s / window_.dt_s) + 2);  // no allocation in Observe
+  }
+  window_running_ = false;
+}
+
+bool ModelMonitor::EffectsModelOutput(double& a_y, double& r) noexcept {
+  const double needed_s = model_->config().burn_in_s + 1.0;  // settled past the burn-in
+  if (window_.duration_s() < needed_s) return false;
+  try {
+    const identify::SegmentList one{&window_};
+    const auto out = identify::SimulateChunks(*model_, model_params_, one);
+    if (out.empty() || out.back().a_y_model_mps2.empty()) return false;
+    const auto& c = out.back();
+    if (c.first + c.n != window_.samples.size()) return false;  // the newest sample is not simulated
+    a_y = c.a_y_model_mps2.back();
+    r = c.yaw_rate_model_radps.empty() ? 0.0 : c.yaw_rate_model_radps.back();
+    return std::isfinite(a_y) && std::isfinite(r);
+  } catch (...) {  // out of memory: no model value this time
+    return false;
+  }
 }
 
 std::optional<publish::MonitorMessage> ModelMonitor::Observe(const gate::GatedSample& g) noexcept {
@@ -38,11 +70,42 @@ std::optional<publish::MonitorMessage> ModelMonitor::Observe(const gate::GatedSa
   } else {
     running_ = false;
   }
+  if (model_) {
+    // The recent gated samples at the identification rate, for the model with effects.
+    const double gap = static_cast<double>(s.t_ns - prev_t_ns_) * 1e-9;
+    if (!accepted || g.segment_start || g.new_drive || gap <= 0 || gap > 2.5 * period_s_) {
+      window_.samples.clear();
+      window_running_ = false;
+      window_count_ = 0;
+    }
+    if (accepted) {
+      if (!window_running_) {
+        window_running_ = true;
+        window_.t0_ns = s.t_ns;
+        window_.drive_id = g.drive_id;
+        window_.has_yaw_rate = s.has_yaw_rate;
+      }
+      if (window_count_++ % window_decimation_ == 0) {
+        window_.samples.push_back({static_cast<float>(s.steer_rad), static_cast<float>(s.speed_mps),
+                                   static_cast<float>(s.lat_accel_mps2), static_cast<float>(s.yaw_rate_radps),
+                                   static_cast<float>(s.long_accel_mps2)});
+        const size_t max_n = static_cast<size_t>(kWindow_s / window_.dt_s);
+        if (window_.samples.size() > 2 * max_n) {  // drop the oldest half at once (amortised O(1))
+          const size_t drop = window_.samples.size() - max_n;
+          window_.samples.erase(window_.samples.begin(), window_.samples.begin() + static_cast<long>(drop));
+          window_.t0_ns += static_cast<int64_t>(1e9 * window_.dt_s * static_cast<double>(drop));
+        }
+      }
+    }
+  }
   prev_steer_ = s.steer_rad;
   prev_speed_ = s.speed_mps;
   prev_t_ns_ = s.t_ns;
   if (++count_ < decimation_) return std::nullopt;
   count_ = 0;
+  if (model_) {
+    model_valid = accepted && window_running_ && EffectsModelOutput(ay_model, r_model);
+  }
   publish::MonitorMessage m;
   m.utime = s.t_ns / 1000;
   m.lat_accel_mps2 = s.lat_accel_mps2;

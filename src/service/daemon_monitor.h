@@ -1,12 +1,20 @@
 // The monitor stream: the current parameters simulated alongside the data on the reading path
 // (linear single-track model, ndsid::model::Rk4Step at the sync rate, reset to its steady state
 // at every gated segment start), decimated to lcm.monitor_rate_hz.
+// With model effects (SetModel) the monitor predicts with the current model, effects included:
+// at every message it re-simulates the last kWindow_s of the gated segment exactly as the fit
+// scores it (identify::SimulateChunks: the identification rate, the road-bank estimate, the
+// burn-in) and reports the newest sample; no model value until the window is past the burn-in.
 // Thread: the reading thread (called with every gated sample).
 #pragma once
 
+#include <memory>
 #include <optional>
+#include <vector>
 
 #include "ndsid/gate/gate.h"
+#include "ndsid/identify/identifier.h"
+#include "ndsid/stats/segment.h"
 #include "ndsid/model/single_track.h"
 #include "ndsid/publish/estimate_sink.h"
 
@@ -18,6 +26,10 @@ class ModelMonitor {
 
   // Parameters to simulate (a new valid estimate); empty: no model yet.
   void SetParams(const std::optional<model::Params<double>>& params);
+  // The full model (effects included) and its full parameter vector: the monitor then predicts
+  // with it (a model without effects: nullptr, SetParams' linear model is used).
+  void SetModel(std::shared_ptr<const identify::Identifier> model, std::vector<double> params);
+  static constexpr double kWindow_s = 10.0;
 
   // Steps the model with this sample; returns a message every decimation-th sample.
   std::optional<publish::MonitorMessage> Observe(const gate::GatedSample& g) noexcept;
@@ -32,6 +44,14 @@ class ModelMonitor {
   model::State<double> x_{0, 0};
   double prev_steer_ = 0, prev_speed_ = 0;
   int64_t prev_t_ns_ = 0;
+  // The model with effects, and the recent gated samples at the identification rate.
+  bool EffectsModelOutput(double& a_y, double& r) noexcept;
+  std::shared_ptr<const identify::Identifier> model_;
+  std::vector<double> model_params_;
+  stats::Segment window_;
+  int window_decimation_ = 1;
+  int window_count_ = 0;
+  bool window_running_ = false;
 };
 
 }  // namespace ndsid::service
