@@ -154,7 +154,10 @@ struct Daemon::Impl {
     monitor_limit = publish::WallRateLimiter(c.lcm.monitor_rate_hz);
     pipe().SetSampleObserver([this](const gate::GatedSample& g) {
       auto m = monitor->Observe(g);
-      if (m && monitor_limit.Allow(MonoNs())) sink->PublishMonitor(*m);
+      if (m && monitor_limit.Allow(MonoNs())) {
+        monitor->FillModel(*m);
+        sink->PublishMonitor(*m);
+      }
     });
   }
 

@@ -103,9 +103,8 @@ std::optional<publish::MonitorMessage> ModelMonitor::Observe(const gate::GatedSa
   prev_t_ns_ = s.t_ns;
   if (++count_ < decimation_) return std::nullopt;
   count_ = 0;
-  if (model_) {
-    model_valid = accepted && window_running_ && EffectsModelOutput(ay_model, r_model);
-  }
+  pending_model_ = model_ && accepted && window_running_;
+  if (model_) model_valid = false;  // FillModel
   publish::MonitorMessage m;
   m.utime = s.t_ns / 1000;
   m.lat_accel_mps2 = s.lat_accel_mps2;
@@ -117,6 +116,15 @@ std::optional<publish::MonitorMessage> ModelMonitor::Observe(const gate::GatedSa
   m.yaw_rate_model_radps = model_valid ? r_model : 0.0;
   m.verdict = gate::VerdictName(g.verdict);
   return m;
+}
+
+void ModelMonitor::FillModel(publish::MonitorMessage& m) noexcept {
+  if (!pending_model_) return;
+  pending_model_ = false;
+  double a_y = 0, r = 0;
+  m.model_valid = EffectsModelOutput(a_y, r);
+  m.lat_accel_model_mps2 = m.model_valid ? a_y : 0.0;
+  m.yaw_rate_model_radps = m.model_valid ? r : 0.0;
 }
 
 }  // namespace ndsid::service

@@ -31,8 +31,11 @@ class ModelMonitor {
   void SetModel(std::shared_ptr<const identify::Identifier> model, std::vector<double> params);
   static constexpr double kWindow_s = 10.0;
 
-  // Steps the model with this sample; returns a message every decimation-th sample.
+  // Steps the model with this sample; returns a message every decimation-th sample. With a
+  // model with effects the message's model values are filled by FillModel (the re-simulation
+  // is paid only for messages that are sent: the wall-clock limit drops most in a fast replay).
   std::optional<publish::MonitorMessage> Observe(const gate::GatedSample& g) noexcept;
+  void FillModel(publish::MonitorMessage& m) noexcept;
 
  private:
   double wheelbase_m_;
@@ -52,6 +55,7 @@ class ModelMonitor {
   int window_decimation_ = 1;
   int window_count_ = 0;
   bool window_running_ = false;
+  bool pending_model_ = false;  // the last message may get the effects model's values
 };
 
 }  // namespace ndsid::service

@@ -37,7 +37,8 @@ Rms Feed(ModelMonitor& mon, const std::vector<stats::Segment>& segments) {
       g.drive_id = 0;
       g.segment_start = k == 0;
       t += 20'000'000;
-      const auto m = mon.Observe(g);
+      auto m = mon.Observe(g);
+      if (m) mon.FillModel(*m);
       if (m && m->model_valid) {
         const double e = m->lat_accel_mps2 - m->lat_accel_model_mps2;
         rms.sum += e * e;
