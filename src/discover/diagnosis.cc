@@ -9,6 +9,7 @@
 #include <set>
 
 #include "ndsid/identify/chunks.h"
+#include "ndsid/identify/model_output.h"
 
 namespace ndsid::discover {
 using namespace identify;  // the estimator this stage builds on
@@ -385,6 +386,65 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   return d;
 }
 
+std::vector<OutputVerdict> JudgeOutputs(const Identifier& identifier, const std::vector<double>& params,
+                                        const SegmentList& segments, bool yaw_rate_output, double ratio_limit) {
+  struct Sums {
+    double ss = 0, dd = 0;
+    size_t n = 0, nd = 0;
+    void Add(const std::vector<double>& e) {
+      for (size_t k = 0; k < e.size(); ++k) {
+        ss += e[k] * e[k];
+        if (k > 0) dd += (e[k] - e[k - 1]) * (e[k] - e[k - 1]);
+      }
+      n += e.size();
+      nd += e.empty() ? 0 : e.size() - 1;
+    }
+  } a, r;
+  for (const identify::ChunkOutput& c : identify::SimulateChunks(identifier, params, segments)) {
+    std::vector<double> ea, er;
+    bool yaw_finite = yaw_rate_output && c.yaw_rate_model_radps.size() == c.n;
+    for (size_t k = c.burn_in; k < c.n; ++k) {
+      const stats::SegmentSample& s = c.segment->samples[c.first + k];
+      ea.push_back(static_cast<double>(s.lat_accel_mps2) - c.a_y_model_mps2[k]);
+      if (yaw_finite) {
+        const double e = static_cast<double>(s.yaw_rate_radps) - c.yaw_rate_model_radps[k];
+        yaw_finite = std::isfinite(e);
+        er.push_back(e);
+      }
+    }
+    a.Add(ea);
+    if (yaw_finite) r.Add(er);
+  }
+  std::vector<OutputVerdict> out;
+  auto judge = [&](const Sums& s, const char* name, const char* unit, double to_unit) {
+    if (s.nd == 0) return;
+    OutputVerdict v;
+    v.output = name;
+    v.unit = unit;
+    v.residuals = s.n;
+    v.rmse = to_unit * std::sqrt(s.ss / static_cast<double>(s.n));
+    v.floor = to_unit * std::sqrt(s.dd / (2.0 * static_cast<double>(s.nd)));
+    v.ratio = v.floor > 0 ? v.rmse / v.floor : 0.0;
+    v.unexplained = v.floor > 0 && v.ratio > ratio_limit;
+    char buf[400];
+    if (v.unexplained) {
+      std::snprintf(buf, sizeof buf,
+                    "%s unexplained: held-out RMSE %.4g %s is %.2fx its noise floor %.4g %s (white part of the residual, "
+                    "limit %.2fx): structure is left that no effect of the model explains (an effect outside the "
+                    "library, or a sensor whose noise is not white, e.g. filtered)",
+                    name, v.rmse, unit, v.ratio, v.floor, unit, ratio_limit);
+    } else {
+      std::snprintf(buf, sizeof buf, "%s explained: held-out RMSE %.4g %s is %.2fx its noise floor %.4g %s (limit %.2fx)",
+                    name, v.rmse, unit, v.ratio, v.floor, unit, ratio_limit);
+    }
+    v.text = buf;
+    out.push_back(v);
+  };
+  judge(a, "a_y", "m/s^2", 1.0);
+  judge(r, "yaw rate", "deg/s", 180.0 / M_PI);
+  return out;
+}
+
 Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheelbase_m,
                         const std::vector<std::string>& start_effects, const model::EffectLibrary& library,
                         const SegmentList& training_in,
@@ -513,6 +573,9 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
     }
   }
   if (ladder.stop_reason.empty()) ladder.stop_reason = "step limit reached";
+  ladder.verdicts = JudgeOutputs(current, fit.AllValues(), validation.empty() ? training : validation, fit.yaw_rate_output,
+                                 options.unexplained_ratio);
+  for (const OutputVerdict& v : ladder.verdicts) spdlog::info("ladder: {}", v.text);
   return ladder;
 }
 

@@ -81,7 +81,32 @@ struct LadderOptions {
   AlignmentOptions alignment;
   // The window's standstills (docs/two-outputs.md): every fit and score of the ladder uses them.
   std::vector<gate::StandstillStop> standstill;
+  // After the ladder stops, an output whose held-out RMSE is more than this times its noise
+  // floor (the white part of its residual) is reported unexplained (OutputVerdict).
+  double unexplained_ratio = 1.5;
 };
+
+// After the ladder: one output's held-out residual against its noise floor. The floor is the
+// white part of the residual, sqrt(sum (e_k - e_k-1)^2 / 2n) within chunks (differencing
+// removes what is smooth at 50 Hz: model error, bank, drift; a white noise's variance doubles),
+// as `ndsid compare` computes it. Above `unexplained_ratio` times the floor the residual keeps
+// structure that no model term explains: an effect outside the library, or a sensor whose noise
+// is not white (a filtered signal's differences are small).
+struct OutputVerdict {
+  std::string output;  // "a_y" or "yaw rate"
+  std::string unit;    // of the numbers below: "m/s^2" or "deg/s"
+  double rmse = 0;     // held-out (training when nothing is held out)
+  double floor = 0;
+  double ratio = 0;    // rmse / floor
+  size_t residuals = 0;
+  bool unexplained = false;
+  std::string text;    // the verdict in words, with the numbers
+};
+
+// The verdict for each output the fit scores (the yaw rate only when it is an output) of the
+// model `identifier.spec()` at `params` over `segments`.
+std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, const std::vector<double>& params,
+                                        const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit);
 
 // One candidate refitted by the ladder: what it did to the held-out error, and why it was kept
 // or rejected (the stop message's "no candidate improved" lists these).
@@ -103,6 +128,7 @@ struct Ladder {
   std::vector<RoleLatency> alignment;      // step 0 (empty when not asked for)
   bool aligned = false;                    // some latency applied: rungs are fits on shifted data
   identify::IdentificationResult before_alignment;   // the starting model on the data as recorded
+  std::vector<OutputVerdict> verdicts;     // the final model's outputs against their noise floors
 };
 
 // Step 0 (align the roles in time), then base -> + first effect -> + second ...: diagnose,

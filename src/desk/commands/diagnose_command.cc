@@ -27,6 +27,7 @@ struct DiagnoseArgs {
   std::string candidates;
   int max_steps = 3;
   double z_threshold = discover::DiagnosisOptions{}.z_threshold;
+  double unexplained_ratio = discover::LadderOptions{}.unexplained_ratio;
   bool apply = false;
   bool no_align = false;
   std::string out;
@@ -95,6 +96,7 @@ int Run(const DiagnoseArgs& a) {
   const std::vector<std::string> candidates = ParseEffectList(a.candidates, library);
   if (a.max_steps < 1) throw ConfigError("--max-steps must be >= 1");
   if (!(a.z_threshold > 0)) throw ConfigError("--z-threshold must be > 0");
+  if (!(a.unexplained_ratio > 1)) throw ConfigError("--unexplained-ratio must be > 1 (a held-out RMSE / noise floor ratio)");
   const std::vector<int64_t> hold_out = ParseDriveList(a.hold_out);
   std::unique_ptr<ReplayedData> data = ReplayForModelWork(a.config, a.logs, start);
   HoldOutDrives(*data, hold_out);
@@ -102,6 +104,7 @@ int Run(const DiagnoseArgs& a) {
   opt.max_steps = a.max_steps;
   opt.diagnosis.candidates = candidates;
   opt.diagnosis.z_threshold = a.z_threshold;
+  opt.unexplained_ratio = a.unexplained_ratio;
   opt.align = !a.no_align;
   opt.standstill = data->window.standstill;
   const discover::Ladder ladder = discover::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
@@ -225,6 +228,18 @@ int Run(const DiagnoseArgs& a) {
                              {"delta_bic", t.delta_bic}, {"why", t.why}});
     }
   }
+  // After the ladder: each output's held-out residual against its noise floor.
+  if (!ladder.verdicts.empty()) {
+    std::printf("\nafter the ladder (held-out residual against its noise floor, the white part):\n");
+    md += "\n## After the ladder\n\n";
+    j["verdicts"] = nlohmann::json::array();
+    for (const auto& v : ladder.verdicts) {
+      std::printf("  %s\n", v.text.c_str());
+      md += std::string("- ") + (v.unexplained ? "**" : "") + v.text + (v.unexplained ? "**" : "") + "\n";
+      j["verdicts"].push_back({{"output", v.output}, {"unit", v.unit}, {"rmse", v.rmse}, {"noise_floor", v.floor},
+                               {"ratio", v.ratio}, {"residuals", v.residuals}, {"unexplained", v.unexplained}, {"text", v.text}});
+    }
+  }
   const std::string out = a.out.empty() ? (fs::path(data->config.report_dir) / "diagnose").string() : a.out;
   fs::create_directories(out);
   WriteFileAtomically((fs::path(out) / "diagnosis.json").string(), j.dump(2) + "\n");
@@ -265,6 +280,9 @@ void Register(CLI::App& parent, int& exit_code) {
   cmd->add_option("--max-steps", args->max_steps, "Most effects the ladder adds")->capture_default_str();
   cmd->add_option("--z-threshold", args->z_threshold,
                   "Significance filter: |robust score z| a candidate needs before the ladder refits with it")
+      ->capture_default_str();
+  cmd->add_option("--unexplained-ratio", args->unexplained_ratio,
+                  "After the ladder: an output whose held-out RMSE exceeds this times its noise floor is reported unexplained")
       ->capture_default_str();
   cmd->add_flag("--apply", args->apply,
                 "Write the ladder's final effect list, and the significant latencies of step 0, into the configuration file");
