@@ -2,7 +2,8 @@
 """Plots for `ndsid compare` and `ndsid diagnose` (docs/model-workflow.md).
 
     model_report_plots.py compare DIR   reads compare.csv + summary.json, writes timeseries.png,
-                                        residual_bins.png, steady_state.png, coverage.png
+                                        residual_bins.png, steady_state.png, coverage.png, and
+                                        yaw_residual_bins.png when the bus has a yaw rate
     model_report_plots.py ladder DIR    reads diagnosis.json, writes error_ladder.png
 """
 import csv
@@ -44,7 +45,8 @@ def plot_timeseries(folder, summary, rows, labels):
     rs = chunks[key][:3000]  # at most 60 s
     t0 = fnum(rs[0]["t_s"])
     t = [fnum(r["t_s"]) - t0 for r in rs]
-    fig, axes = plt.subplots(3, 1, figsize=(11, 8), sharex=True)
+    yaw = has_yaw_rate(rows)
+    fig, axes = plt.subplots(4 if yaw else 3, 1, figsize=(11, 10.5 if yaw else 8), sharex=True)
     axes[0].plot(t, [fnum(r["ay_meas_mps2"]) for r in rs], "k", lw=0.8, label="measured")
     for lab in labels:
         m = next(x for x in summary["models"] if x["label"] == lab)
@@ -56,15 +58,24 @@ def plot_timeseries(folder, summary, rows, labels):
     axes[1].axhline(0, color="grey", lw=0.5)
     axes[1].set_ylabel("residual [m/s²]")
     axes[1].legend(fontsize=8)
-    axes[2].plot(t, [fnum(r["speed_mps"]) for r in rs], "g", lw=0.8)
-    axes[2].set_ylabel("v [m/s]", color="g")
-    ax2 = axes[2].twinx()
+    if yaw:  # the second output: measured and modelled yaw rate
+        axes[2].plot(t, [math.degrees(fnum(r["yaw_rate_meas_radps"])) for r in rs], "k", lw=0.8, label="measured")
+        for lab in labels:
+            axes[2].plot(t, [math.degrees(fnum(r[f"yaw_rate_{lab}_radps"])) for r in rs], color=COLORS.get(lab), lw=1.0,
+                         label=lab)
+        axes[2].set_ylabel("yaw rate [deg/s]")
+        axes[2].legend(fontsize=8)
+        axes[2].grid(True, alpha=0.3)
+    axv = axes[-1]
+    axv.plot(t, [fnum(r["speed_mps"]) for r in rs], "g", lw=0.8)
+    axv.set_ylabel("v [m/s]", color="g")
+    ax2 = axv.twinx()
     ax2.plot(t, [math.degrees(fnum(r["steer_rad"])) for r in rs], "m", lw=0.8)
     ax2.set_ylabel("steering wheel [deg]", color="m")
-    axes[2].set_xlabel(f"t [s] (drive {rs[0]['drive']}, chunk {key[1]}, {key[0]})")
+    axv.set_xlabel(f"t [s] (drive {rs[0]['drive']}, chunk {key[1]}, {key[0]})")
     for ax in axes[:2]:
         ax.grid(True, alpha=0.3)
-    fig.suptitle("Measured vs modelled lateral acceleration (held-out stretch)")
+    fig.suptitle("Measured vs modelled lateral acceleration" + (" and yaw rate" if yaw else "") + " (held-out stretch)")
     fig.tight_layout()
     fig.savefig(folder / "timeseries.png", dpi=100)
     plt.close(fig)
@@ -82,18 +93,28 @@ def binned(xs, es, edges):
     return out
 
 
-def plot_residual_bins(folder, summary, rows, labels):
+def has_yaw_rate(rows):
+    """Every row has a measured and modelled yaw rate (compare writes them when the bus has one)."""
+    return bool(rows) and "yaw_rate_meas_radps" in rows[0] and all(r["yaw_rate_meas_radps"] != "" for r in rows)
+
+
+def plot_residual_bins(folder, summary, rows, labels, yaw=False):
     scored = [r for r in rows if r["scored"] == "1"]
     specs = [("ay_meas_mps2", "a_y [m/s²]", [x * 0.5 for x in range(-8, 9)], lambda v: v),
              ("speed_mps", "v [m/s]", list(range(5, 45, 2)), lambda v: v),
              ("steer_rate_radps", "steering rate [rad/s]", [x * 0.05 for x in range(-12, 13)], lambda v: v),
              ("ax_mps2", "a_x [m/s²]", [x * 0.25 for x in range(-12, 9)], lambda v: v)]
     fig, axes = plt.subplots(2, 2, figsize=(11, 7))
-    floor = summary["noise_floor_mps2"]
+    floor = summary["yaw_rate"]["noise_floor_degps"] if yaw else summary["noise_floor_mps2"]
+
+    def resid(r, lab):
+        if yaw:
+            return math.degrees(fnum(r["yaw_rate_meas_radps"]) - fnum(r[f"yaw_rate_{lab}_radps"]))
+        return fnum(r[f"resid_{lab}_mps2"])
     for ax, (col, xlabel, edges, f) in zip(axes.flat, specs):
         xs = [f(fnum(r[col])) for r in scored]
         for i, lab in enumerate(labels):
-            es = [fnum(r[f"resid_{lab}_mps2"]) for r in scored]
+            es = [resid(r, lab) for r in scored]
             b = binned(xs, es, edges)
             if b:
                 off = (edges[1] - edges[0]) * 0.12 * (i - 0.5)
@@ -102,12 +123,13 @@ def plot_residual_bins(folder, summary, rows, labels):
         ax.axhspan(-floor, floor, color="grey", alpha=0.2, label="± noise floor")
         ax.axhline(0, color="k", lw=0.5)
         ax.set_xlabel(xlabel)
-        ax.set_ylabel("residual [m/s²]")
+        ax.set_ylabel("yaw-rate residual [deg/s]" if yaw else "residual [m/s²]")
         ax.grid(True, alpha=0.3)
     axes[0][0].legend(fontsize=8)
-    fig.suptitle("Residual e = a_y,meas − a_y,model: binned mean ± standard deviation")
+    fig.suptitle(("Residual e_r = r_meas − r_model" if yaw else "Residual e = a_y,meas − a_y,model") +
+                 ": binned mean ± standard deviation")
     fig.tight_layout()
-    fig.savefig(folder / "residual_bins.png", dpi=100)
+    fig.savefig(folder / ("yaw_residual_bins.png" if yaw else "residual_bins.png"), dpi=100)
     plt.close(fig)
 
 
@@ -209,6 +231,8 @@ def main():
         labels = [m["label"] for m in summary["models"]]
         plot_timeseries(folder, summary, rows, labels)
         plot_residual_bins(folder, summary, rows, labels)
+        if has_yaw_rate(rows) and "yaw_rate" in summary:
+            plot_residual_bins(folder, summary, rows, labels, yaw=True)
         plot_steady_state(folder, summary, rows, labels)
         plot_coverage(folder, rows)
     elif mode == "ladder":

@@ -212,13 +212,19 @@ std::vector<BinDef> BinDefinitions(const std::vector<SampleRow>& rows) {
   return defs;
 }
 
-FitFigures Figures(const std::vector<SampleRow>& rows, size_t model, bool validation) {
+// The residual of one output: a_y [m/s^2], or the yaw rate [deg/s].
+double Measured(const SampleRow& r, bool yaw) { return yaw ? r.yaw_rate_radps * 180.0 / M_PI : r.ay_mps2; }
+double Residual(const SampleRow& r, size_t model, bool yaw) {
+  return yaw ? (r.yaw_rate_radps - r.yaw_model[model]) * 180.0 / M_PI : r.ay_mps2 - r.ay_model[model];
+}
+
+FitFigures Figures(const std::vector<SampleRow>& rows, size_t model, bool validation, bool yaw = false) {
   FitFigures f;
   double sy = 0, se = 0, see = 0, syy = 0;
   for (const auto& r : rows) {
     if (!r.scored || r.validation != validation) continue;
-    const double e = r.ay_mps2 - r.ay_model[model];
-    ++f.n, sy += r.ay_mps2, syy += r.ay_mps2 * r.ay_mps2, se += e, see += e * e;
+    const double y = Measured(r, yaw), e = Residual(r, model, yaw);
+    ++f.n, sy += y, syy += y * y, se += e, see += e * e;
   }
   if (f.n == 0) return f;
   const double n = static_cast<double>(f.n);
@@ -274,24 +280,49 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
       c.rows.push_back(std::move(r));
     }
   }
-  for (size_t m = 0; m < nm; ++m) {
-    c.train.push_back(Figures(c.rows, m, false));
-    c.validation.push_back(Figures(c.rows, m, true));
-    // White part of the residual: differencing removes what is smooth at 50 Hz.
+  c.has_yaw_rate = !c.rows.empty();
+  for (const SampleRow& r : c.rows) {
+    if (!r.scored) continue;
+    bool finite = std::isfinite(r.yaw_rate_radps);
+    for (double y : r.yaw_model) finite = finite && std::isfinite(y);
+    if (!finite) {
+      c.has_yaw_rate = false;
+      break;
+    }
+  }
+  c.yaw_rate_fitted = data.config.identification.yaw_rate_output;
+  // White part of the residual (differencing removes what is smooth at 50 Hz) and the RMSE over
+  // every scored sample, of one output.
+  auto white_and_rmse = [&](size_t m, bool yaw, double& white, double& rmse) {
     double sd = 0, sdd = 0, see = 0;
     size_t nd = 0, ne = 0;
     for (size_t i = 0; i < c.rows.size(); ++i) {
       const SampleRow& r = c.rows[i];
       if (!r.scored) continue;
-      const double e = r.ay_mps2 - r.ay_model[m];
+      const double e = Residual(r, m, yaw);
       see += e * e, ++ne;
       if (i == 0 || !c.rows[i - 1].scored || c.rows[i - 1].chunk != r.chunk) continue;
-      const double d = e - (c.rows[i - 1].ay_mps2 - c.rows[i - 1].ay_model[m]);
+      const double d = e - Residual(c.rows[i - 1], m, yaw);
       sd += d, sdd += d * d, ++nd;
     }
     const double var = nd > 1 ? (sdd - sd * sd / nd) / (nd - 1.0) : 0.0;
-    c.white_noise.push_back(std::sqrt(std::max(0.0, var) / 2.0));
-    c.overall_rmse.push_back(ne ? std::sqrt(see / ne) : 0.0);
+    white = std::sqrt(std::max(0.0, var) / 2.0);
+    rmse = ne ? std::sqrt(see / ne) : 0.0;
+  };
+  for (size_t m = 0; m < nm; ++m) {
+    c.train.push_back(Figures(c.rows, m, false));
+    c.validation.push_back(Figures(c.rows, m, true));
+    double white = 0, rmse = 0;
+    white_and_rmse(m, false, white, rmse);
+    c.white_noise.push_back(white);
+    c.overall_rmse.push_back(rmse);
+    if (c.has_yaw_rate) {
+      c.yaw_train.push_back(Figures(c.rows, m, false, true));
+      c.yaw_validation.push_back(Figures(c.rows, m, true, true));
+      white_and_rmse(m, true, white, rmse);
+      c.yaw_white_noise.push_back(white);
+      c.yaw_overall_rmse.push_back(rmse);
+    }
   }
   if (noise_floor) {
     c.noise_floor = *noise_floor;
@@ -300,20 +331,28 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
     c.noise_floor = *std::min_element(c.white_noise.begin(), c.white_noise.end());
     c.noise_floor_source = "white part of the residual, sqrt(var(diff e)/2), smallest over the models";
   }
-  for (const BinDef& def : BinDefinitions(c.rows)) {
-    Bin bin{def.group, def.label, {}};
-    for (size_t m = 0; m < nm; ++m) {
-      std::vector<double> e;
-      std::vector<int> cl;
-      for (const SampleRow& r : c.rows) {
-        if (!r.scored || !def.in(r)) continue;
-        e.push_back(r.ay_mps2 - r.ay_model[m]);
-        cl.push_back(r.chunk);
+  if (c.has_yaw_rate) c.yaw_noise_floor = *std::min_element(c.yaw_white_noise.begin(), c.yaw_white_noise.end());
+  auto bins = [&](bool yaw) {
+    std::vector<Bin> out;
+    for (const BinDef& def : BinDefinitions(c.rows)) {
+      Bin bin{def.group, def.label, {}};
+      for (size_t m = 0; m < nm; ++m) {
+        std::vector<double> e;
+        std::vector<int> cl;
+        for (const SampleRow& r : c.rows) {
+          if (!r.scored || !def.in(r)) continue;
+          e.push_back(Residual(r, m, yaw));
+          cl.push_back(r.chunk);
+        }
+        bin.per_model.push_back(yaw ? ComputeBin(e, cl, c.yaw_noise_floor, c.yaw_overall_rmse[m])
+                                    : ComputeBin(e, cl, c.noise_floor, c.overall_rmse[m]));
       }
-      bin.per_model.push_back(ComputeBin(e, cl, c.noise_floor, c.overall_rmse[m]));
+      out.push_back(std::move(bin));
     }
-    c.bins.push_back(std::move(bin));
-  }
+    return out;
+  };
+  c.bins = bins(false);
+  if (c.has_yaw_rate) c.yaw_bins = bins(true);
   return c;
 }
 
@@ -335,20 +374,33 @@ void PrintComparison(const Comparison& c) {
     }
   }
   std::printf("noise floor %.4f m/s^2 (%s)\n", c.noise_floor, c.noise_floor_source.c_str());
-  std::printf("\nwhere it fails: residual e = a_y,meas - a_y,model [m/s^2], bias ± clustered SE (chunks), RMSE\n");
-  std::printf("%-28s %-13s", "bin", "");
-  for (const auto& m : c.models) std::printf(" | %-8s %7s %6s %6s %-9s", m.label.c_str(), "bias", "se", "rmse", "verdict");
-  std::printf("\n");
-  std::string group;
-  for (const Bin& b : c.bins) {
-    std::printf("%-28s %-13s", b.group == group ? "" : b.group.c_str(), b.label.c_str());
-    group = b.group;
-    for (const BinStats& s : b.per_model) {
-      std::printf(" | n=%-6zu %+7.3f %6.3f %6.3f %-9s", s.n, s.bias, std::isfinite(s.se) ? s.se : 0.0, s.rmse,
-                  VerdictText(s.verdict));
+  if (c.has_yaw_rate) {
+    for (size_t m = 0; m < c.models.size(); ++m) {
+      char held_out[32] = "n/a";
+      if (c.yaw_validation[m].n) std::snprintf(held_out, sizeof held_out, "%.4f", c.yaw_validation[m].rmse);
+      std::printf("yaw rate %-8s RMSE train %.4f, held-out %s deg/s (%s)\n", c.models[m].label.c_str(), c.yaw_train[m].rmse,
+                  held_out, c.yaw_rate_fitted ? "fitted" : "not fitted: predicted by the a_y fit");
     }
-    std::printf("\n");
+    std::printf("yaw-rate noise floor %.4f deg/s\n", c.yaw_noise_floor);
   }
+  auto table = [&](const std::vector<Bin>& bins, const char* title) {
+    std::printf("\n%s, bias ± clustered SE (chunks), RMSE\n", title);
+    std::printf("%-28s %-13s", "bin", "");
+    for (const auto& m : c.models) std::printf(" | %-8s %7s %6s %6s %-9s", m.label.c_str(), "bias", "se", "rmse", "verdict");
+    std::printf("\n");
+    std::string group;
+    for (const Bin& b : bins) {
+      std::printf("%-28s %-13s", b.group == group ? "" : b.group.c_str(), b.label.c_str());
+      group = b.group;
+      for (const BinStats& s : b.per_model) {
+        std::printf(" | n=%-6zu %+7.3f %6.3f %6.3f %-9s", s.n, s.bias, std::isfinite(s.se) ? s.se : 0.0, s.rmse,
+                    VerdictText(s.verdict));
+      }
+      std::printf("\n");
+    }
+  };
+  table(c.bins, "where it fails: residual e = a_y,meas - a_y,model [m/s^2]");
+  if (c.has_yaw_rate) table(c.yaw_bins, "where it fails, yaw rate: residual e_r = r_meas - r_model [deg/s]");
 }
 
 std::string HtmlEscape(const std::string& s) {

@@ -89,6 +89,16 @@ struct Comparison {
   std::vector<double> overall_rmse;  // per model, all scored samples
   std::vector<FitFigures> train, validation;
   std::vector<Bin> bins;
+  // The yaw rate, when every scored sample of the window has one: the residual
+  // r_meas - r_model (the modelled measured yaw rate, gyro effects included) in deg/s, binned
+  // by the same conditions and judged by the same rule against its own noise floor.
+  bool has_yaw_rate = false;
+  bool yaw_rate_fitted = false;           // identification.outputs has the yaw rate
+  std::vector<double> yaw_white_noise;    // deg/s, per model
+  double yaw_noise_floor = 0;             // deg/s (smallest over the models)
+  std::vector<double> yaw_overall_rmse;   // deg/s, per model
+  std::vector<FitFigures> yaw_train, yaw_validation;  // deg/s
+  std::vector<Bin> yaw_bins;
 };
 
 // Failing-bin rule (docs/model-workflow.md): at least kMinBinSamples scored samples; bias

@@ -309,6 +309,48 @@ TEST(Compare, BaseModelStraightLineBiasIsTheSteerOffsetSignature) {
   EXPECT_NEAR(measured, predicted, 0.2 * std::abs(predicted)) << "predicted " << predicted;
 }
 
+// Catches: yaw-rate bins missing or computed from another residual than r_meas - r_model, or a
+// steering offset that does not show in the yaw rate. The bus has a yaw rate, so compare bins
+// its residual too (deg/s): each bin's bias is the mean of the CSV's yaw residual, and the
+// baseline's straight-line yaw bias is the offset's steady-state signature
+// -(d0/is) v/(l + EG v^2).
+TEST(Compare, YawRateResidualIsBinnedAndShowsTheSteeringOffset) {
+  const Csv b = ReadCsv(kOut / "compare_out" / "yaw_bins.csv");
+  ASSERT_FALSE(b.rows.empty()) << "yaw_bins.csv";
+  std::map<std::string, std::pair<std::string, double>> bins;
+  for (size_t r = 0; r < b.rows.size(); ++r)
+    bins[b.str(r, "group") + "|" + b.str(r, "label") + "|" + b.str(r, "model")] = {b.str(r, "verdict"), b.num(r, "bias_degps")};
+  const Csv& c = CompareCsv();
+  for (const std::string model : {"model", "baseline"}) {
+    double sum = 0, sum_pred = 0;
+    size_t n = 0, n_fast = 0;
+    double sum_fast = 0;
+    for (size_t r = 0; r < c.rows.size(); ++r) {
+      if (c.str(r, "scored") != "1" || c.str(r, "set") != "train") continue;
+      const double e = (c.num(r, "yaw_rate_meas_radps") - c.num(r, "yaw_rate_" + model + "_radps")) * 180 / M_PI;
+      sum += e, ++n;
+      const double v = c.num(r, "speed_mps");
+      if (std::abs(c.num(r, "ay_meas_mps2")) >= 0.5 || v < 30) continue;
+      sum_fast += e, ++n_fast;
+      sum_pred += -(kTrueOffsetRad / kTrueSteerRatio) * v / (kWheelbase + kTrueEg * v * v) * 180 / M_PI;
+    }
+    ASSERT_GT(n_fast, 1000u);
+    EXPECT_NEAR(bins.at("set|training|" + model).second, sum / n, 1e-4) << model;
+    EXPECT_NEAR(bins.at("straight |a_y|<0.5, v [m/s]|>30|" + model).second, sum_fast / n_fast, 1e-4) << model;
+    if (model == "baseline") {
+      std::printf("baseline straight >30 m/s yaw bias %.4f deg/s, predicted %.4f\n", sum_fast / n_fast, sum_pred / n_fast);
+      EXPECT_NEAR(sum_fast / n_fast, sum_pred / n_fast, 0.2 * std::abs(sum_pred / n_fast));
+      EXPECT_EQ(bins.at("straight |a_y|<0.5, v [m/s]|>30|baseline").first, "FAIL bias");
+    } else {
+      EXPECT_EQ(bins.at("straight |a_y|<0.5, v [m/s]|>30|model").first, "ok");
+    }
+  }
+  const auto j = ReadJson(kOut / "compare_out" / "summary.json");
+  ASSERT_TRUE(j.contains("yaw_rate"));
+  EXPECT_FALSE(j["yaw_rate"]["fitted"].get<bool>()) << "the fixture's config fits a_y alone";
+  EXPECT_NEAR(j["yaw_rate"]["noise_floor_degps"].get<double>(), 0.1 / std::sqrt(2.0), 0.03);
+}
+
 TEST(Compare, HtmlReportIsOfflineAndLinksExistingPlots) {
   const fs::path dir = kOut / "compare_out";
   const std::string html = ReadWholeFile((dir / "report.html").string());
@@ -316,7 +358,7 @@ TEST(Compare, HtmlReportIsOfflineAndLinksExistingPlots) {
   EXPECT_EQ(html.find("https://"), std::string::npos);
   EXPECT_NE(html.find("Where it fails"), std::string::npos);
   if (!fs::exists(fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3")) GTEST_SKIP() << "no project venv";
-  for (const char* png : {"timeseries.png", "residual_bins.png", "steady_state.png", "coverage.png"}) {
+  for (const char* png : {"timeseries.png", "residual_bins.png", "yaw_residual_bins.png", "steady_state.png", "coverage.png"}) {
     EXPECT_NE(html.find(std::string("src=\"") + png + "\""), std::string::npos) << png;
     EXPECT_GT(fs::file_size(dir / png), 10000u) << png;
   }

@@ -91,6 +91,19 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
       }
     WriteFileAtomically((d / "bins.csv").string(), csv);
   }
+  if (c.has_yaw_rate) {  // yaw_bins.csv: the same bins on the yaw-rate residual [deg/s]
+    std::string csv = "group,label,model,n,clusters,bias_degps,se_degps,rmse_degps,verdict\n";
+    for (const Bin& b : c.yaw_bins)
+      for (size_t m = 0; m < nm; ++m) {
+        const BinStats& s = b.per_model[m];
+        char line[256];
+        std::snprintf(line, sizeof line, "\"%s\",\"%s\",%s,%zu,%d,%.6g,%.6g,%.6g,%s\n", b.group.c_str(), b.label.c_str(),
+                      c.models[m].label.c_str(), s.n, s.clusters, s.bias, std::isfinite(s.se) ? s.se : -1.0, s.rmse,
+                      VerdictText(s.verdict));
+        csv += line;
+      }
+    WriteFileAtomically((d / "yaw_bins.csv").string(), csv);
+  }
   nlohmann::json j;
   j["data"] = data.outcome.name;
   j["wheelbase_m"] = data.config.vehicle.wheelbase_m;
@@ -100,6 +113,20 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
   j["rule"] = {{"min_samples", kMinBinSamples}, {"bias_z", kBiasZ}, {"rmse_factor", kRmseFactor}};
   for (size_t m = 0; m < nm; ++m) {
     j["models"].push_back(ModelJson(c.models[m], c.train[m], c.validation[m], c.white_noise[m], c.overall_rmse[m]));
+  }
+  if (c.has_yaw_rate) {
+    nlohmann::json y;
+    y["fitted"] = c.yaw_rate_fitted;
+    y["noise_floor_degps"] = c.yaw_noise_floor;
+    for (size_t m = 0; m < nm; ++m) {
+      y["models"].push_back({{"label", c.models[m].label},
+                             {"rmse_train_degps", c.yaw_train[m].rmse},
+                             {"rmse_validation_degps", c.yaw_validation[m].n ? c.yaw_validation[m].rmse : -1.0},
+                             {"bias_train_degps", c.yaw_train[m].bias},
+                             {"white_noise_degps", c.yaw_white_noise[m]},
+                             {"rmse_all_scored_degps", c.yaw_overall_rmse[m]}});
+    }
+    j["yaw_rate"] = y;
   }
   WriteFileAtomically((d / "summary.json").string(), j.dump(2) + "\n");
 
@@ -135,24 +162,39 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
        "× its standard error clustered by chunk (at least 3 chunks) and |bias| &gt; half the noise floor; on <b>RMSE</b> "
        "when its RMSE &gt; " + Num("%g", kRmseFactor) + "× the model's overall RMSE; bins with fewer than " +
        std::to_string(kMinBinSamples) + " samples are not judged.</p>\n<table><tr><th class=l>group</th><th class=l>bin</th>";
-  for (const auto& m : c.models) h += "<th>n</th><th>" + m.label + " bias</th><th>SE</th><th>RMSE</th><th>verdict</th>";
-  h += "</tr>\n";
-  for (const Bin& b : c.bins) {
-    h += "<tr><td class=l>" + HtmlEscape(b.group) + "</td><td class=l>" + HtmlEscape(b.label) + "</td>";
-    for (const BinStats& s : b.per_model) {
-      const bool fail = s.verdict == BinVerdict::kFailBias || s.verdict == BinVerdict::kFailRmse;
-      const std::string cls = fail ? " class=fail" : (s.verdict == BinVerdict::kTooFew ? " class=few" : "");
-      h += "<td>" + std::to_string(s.n) + "</td><td" + cls + ">" + Num("%+.4f", s.bias) + "</td><td>" +
-           Num("%.4f", std::isfinite(s.se) ? s.se : 0.0) + "</td><td" + cls + ">" + Num("%.4f", s.rmse) + "</td><td" +
-           cls + ">" + VerdictText(s.verdict) + "</td>";
-    }
+  auto bins_table = [&](const std::vector<Bin>& bins, const char* fmt) {
+    for (const auto& m : c.models) h += "<th>n</th><th>" + m.label + " bias</th><th>SE</th><th>RMSE</th><th>verdict</th>";
     h += "</tr>\n";
+    for (const Bin& b : bins) {
+      h += "<tr><td class=l>" + HtmlEscape(b.group) + "</td><td class=l>" + HtmlEscape(b.label) + "</td>";
+      for (const BinStats& s : b.per_model) {
+        const bool fail = s.verdict == BinVerdict::kFailBias || s.verdict == BinVerdict::kFailRmse;
+        const std::string cls = fail ? " class=fail" : (s.verdict == BinVerdict::kTooFew ? " class=few" : "");
+        h += "<td>" + std::to_string(s.n) + "</td><td" + cls + ">" + Num(fmt, s.bias) + "</td><td>" +
+             Num("%.4f", std::isfinite(s.se) ? s.se : 0.0) + "</td><td" + cls + ">" + Num("%.4f", s.rmse) + "</td><td" +
+             cls + ">" + VerdictText(s.verdict) + "</td>";
+      }
+      h += "</tr>\n";
+    }
+  };
+  bins_table(c.bins, "%+.4f");
+  if (c.has_yaw_rate) {
+    h += "</table>\n<h2>Where it fails: yaw rate</h2>\n<p>Residual e<sub>r</sub> = r<sub>meas</sub> − r<sub>model</sub> in deg/s "
+         "(the modelled measured yaw rate, gyro effects included; " +
+         std::string(c.yaw_rate_fitted ? "fitted as an output" : "not fitted: predicted by the a<sub>y</sub> fit") +
+         "), the same bins and rule against its own noise floor " + Num("%.4f", c.yaw_noise_floor) + " deg/s. RMSE train / held-out: ";
+    for (size_t m = 0; m < nm; ++m)
+      h += c.models[m].label + " " + Num("%.4f", c.yaw_train[m].rmse) + " / " +
+           (c.yaw_validation[m].n ? Num("%.4f", c.yaw_validation[m].rmse) : std::string("n/a")) + " deg/s" + (m + 1 < nm ? "; " : ".");
+    h += "</p>\n<table><tr><th class=l>group</th><th class=l>bin</th>";
+    bins_table(c.yaw_bins, "%+.4f");
   }
   h += "</table>\n<h2>Plots</h2>\n";
   if (plots) {
     const std::pair<const char*, const char*> figs[] = {
         {"timeseries.png", "Measured vs modelled a<sub>y</sub> on a held-out stretch (the validation chunk with the largest a<sub>y</sub> spread; the study's Fig. 7)."},
         {"residual_bins.png", "Residual against a<sub>y</sub>, v, steering rate and a<sub>x</sub>: binned mean ± standard deviation; grey band: ± noise floor."},
+        {"yaw_residual_bins.png", "Yaw-rate residual against a<sub>y</sub>, v, steering rate and a<sub>x</sub>: binned mean ± standard deviation; grey band: ± its noise floor."},
         {"steady_state.png", "Quasi-steady samples (|steering rate| &lt; 0.05 rad/s): δ<sub>sw</sub>/i<sub>s</sub> − l·r/v against a<sub>y</sub> with each model's EG line (the study's Fig. 8)."},
         {"coverage.png", "Coverage: g-g diagram and v–a<sub>y</sub> of the scored samples."}};
     for (const auto& [file, caption] : figs) {
@@ -161,7 +203,8 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
   } else {
     h += "<p><b>No plots:</b> " + HtmlEscape(why_not) + ". The numbers above do not depend on them.</p>\n";
   }
-  h += "<p>Files: <a href=\"compare.csv\">compare.csv</a>, <a href=\"bins.csv\">bins.csv</a>, "
+  h += "<p>Files: <a href=\"compare.csv\">compare.csv</a>, <a href=\"bins.csv\">bins.csv</a>, " +
+       std::string(c.has_yaw_rate ? "<a href=\"yaw_bins.csv\">yaw_bins.csv</a>, " : "") +
        "<a href=\"summary.json\">summary.json</a></p>\n</body></html>\n";
   WriteFileAtomically((d / "report.html").string(), h);
   if (!plots) std::printf("plots not written: %s\n", why_not.c_str());
