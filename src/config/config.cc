@@ -442,6 +442,14 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
     m.Finish();
   }
   c.state_dir = Resolve(base_dir, top.String("state_dir", c.state_dir));
+  if (top.Has("state_unreadable")) {
+    const std::string v = top.String("state_unreadable");
+    if (v == "run_without_persisting") {
+      c.run_without_persisting_if_unreadable = true;
+    } else if (v != "stop") {
+      top.Fail("state_unreadable", "must be 'stop' or 'run_without_persisting', not '" + v + "'");
+    }
+  }
   // Like every path in the file, relative to the file's folder; absent, the default
   // (out/report) stays relative to the working directory of the desk command.
   if (top.Has("report_dir")) c.report_dir = Resolve(base_dir, top.String("report_dir"));

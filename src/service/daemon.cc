@@ -114,6 +114,7 @@ struct Daemon::Impl {
   };
   std::optional<Job> job;
   std::future<bool> persist_job;
+  bool persist_disabled = false;  // the state file exists but cannot be read, and the config says run anyway
   int32_t identifications = 0;
   int64_t restored_data_time_ns = std::numeric_limits<int64_t>::min();  // log frames up to this are learned
   uint64_t skipped_resume = 0;
@@ -165,7 +166,16 @@ struct Daemon::Impl {
     if (const int n = store->RemoveTemporaries(); n > 0)
       spdlog::info("state: removed {} temporary file(s) an interrupted write left in {}", n, cfg().state_dir);
     StateStore::LoadResult r = store->Load();
-    if (r.unreadable) throw ConfigError("state: " + r.message);  // exit 78: no restart loop
+    if (r.unreadable) {
+      if (!cfg().run_without_persisting_if_unreadable) throw ConfigError("state: " + r.message);  // exit 78: no restart loop
+      // By configuration (state_unreadable: run_without_persisting): estimate from scratch, and
+      // never write, so the unreadable file is neither replaced nor lost.
+      persist_disabled = true;
+      spdlog::error("state: {}; running WITHOUT persisting (state_unreadable: run_without_persisting): nothing learned "
+                    "in this run is saved, the file is left as it is",
+                    r.message);
+      return;
+    }
     if (!r.state) {
       if (r.message.find("moved aside") != std::string::npos) {
         spdlog::warn("{}", r.message);
@@ -305,6 +315,7 @@ struct Daemon::Impl {
   // Captures on the reading thread; writes on a helper thread unless `wait` (shutdown). With
   // `wait`, returns whether the state was written.
   bool Persist(bool wait) {
+    if (persist_disabled) return true;  // state_unreadable: run_without_persisting (said at start)
     if (persist_job.valid()) {
       if (!wait && persist_job.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return true;
       persist_job.get();

@@ -388,7 +388,7 @@ StateStore::LoadResult StateStore::Load() {
   } catch (const Error& e) {
     r.unreadable = true;
     r.message = "learned state " + path_ + " exists but cannot be read (" + e.what() +
-                "): stopping rather than overwriting it; fix its permissions (the service's user must read it) or move it away";
+                "): stopping rather than overwriting it; fix its permissions (the service's user must read it) or move it away (or set state_unreadable: run_without_persisting to estimate without saving)";
     return r;
   }
   try {

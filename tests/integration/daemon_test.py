@@ -436,6 +436,25 @@ def UnreadableStateStopsAndIsKept():
         else:
             os.chmod(path, 0o600)
         check(open(path, "rb").read() == before, "the learned state changed")
+        # By configuration the daemon runs without persisting instead, and still never writes.
+        with open(cfg, "a") as f:
+            f.write("state_unreadable: run_without_persisting\n")
+        if os.geteuid() == 0:
+            os.rename(path, path + ".saved")
+            os.mkdir(path)
+        else:
+            os.chmod(path, 0)
+        p = case.run(cfg)
+        check(p.returncode == 0, f"exit {p.returncode} with state_unreadable: run_without_persisting\n{p.stderr[-2000:]}")
+        check("running WITHOUT persisting" in p.stderr, "the run without persisting is not said")
+        check(final_eg(p.stdout) is not None, "no estimate from the run without persisting")
+        if os.geteuid() == 0:
+            check(os.path.isdir(path) and not os.listdir(path), "the unreadable state was written to")
+            os.rmdir(path)
+            os.rename(path + ".saved", path)
+        else:
+            os.chmod(path, 0o600)
+        check(open(path, "rb").read() == before, "the learned state changed in the run without persisting")
     finally:
         case.cleanup()
 

@@ -197,6 +197,9 @@ struct Config {
   PlausibilityConfig plausibility;
   LcmConfig lcm;
   std::string state_dir = "/var/lib/ndsid";
+  // A learned state that exists but cannot be read (permissions, I/O error): stop with exit 78
+  // (default), or run without persisting anything, leaving the file as it is.
+  bool run_without_persisting_if_unreadable = false;  // state_unreadable: stop | run_without_persisting
   std::string report_dir = "out/report";
   std::string log_level = "info";
   std::vector<std::string> model_effects;  // effect names added to the base model
