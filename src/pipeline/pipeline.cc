@@ -83,7 +83,7 @@ void Pipeline::ConsumeSamples() noexcept {
     const sync::Sample& x = g.sample;
     if (x.valid && x.has_wheel_speed && (x.speed_mps > kWheelCheckMinSpeed_mps || x.wheel_speed_mps > kWheelCheckMinSpeed_mps)) {
       try {
-        wheel_speed_[g.drive_id].Add(x.speed_mps, x.wheel_speed_mps, 1.0 / config_.sync.rate_hz, x.t_ns);
+        wheel_speed_[accumulator_.DriveIdOf(g.drive_id)].Add(x.speed_mps, x.wheel_speed_mps, 1.0 / config_.sync.rate_hz, x.t_ns);
       } catch (...) {  // out of memory: the sample is not counted, nothing else
       }
     }
@@ -95,6 +95,7 @@ void Pipeline::ConsumeSamples() noexcept {
   }
   std::vector<gate::StandstillStop> stops = gate_.TakeStops();
   if (stops.empty()) return;
+  for (gate::StandstillStop& st : stops) st.drive_id = accumulator_.DriveIdOf(st.drive_id);  // the window's numbering
   try {
     stops_.insert(stops_.end(), stops.begin(), stops.end());
   } catch (...) {  // out of memory: these stops are lost as evidence, nothing else

@@ -117,6 +117,10 @@ struct Daemon::Impl {
   bool persist_disabled = false;  // the state file exists but cannot be read, and the config says run anyway
   int32_t identifications = 0;
   int64_t restored_data_time_ns = std::numeric_limits<int64_t>::min();  // log frames up to this are learned
+  // A log resumed after a restart is re-read from a little before restored_data_time_ns (the
+  // sync stage needs every role's latest value, the gate its filters), so that the drive and
+  // its gated segment go on seamlessly; the accumulator skips the samples it has already.
+  int64_t resume_from_ns = std::numeric_limits<int64_t>::min();
   uint64_t skipped_resume = 0;
   can::SourceState source_state = can::SourceState::kOk;
   int64_t last_status_ns = 0, last_watchdog_ns = 0, last_persist_ns = 0;
@@ -219,10 +223,10 @@ struct Daemon::Impl {
   // Resume skip (logs only: a live clock may legitimately be behind a state learned from a
   // log), realtime pacing, then the pipeline.
   void Feed(std::span<can::CanFrame> frames) {
-    if (source_is_log && restored_data_time_ns != std::numeric_limits<int64_t>::min()) {
+    if (source_is_log && resume_from_ns != std::numeric_limits<int64_t>::min()) {
       size_t keep = 0;
       for (const can::CanFrame& f : frames) {
-        if (f.timestamp_ns <= restored_data_time_ns) {
+        if (f.timestamp_ns <= resume_from_ns) {
           ++skipped_resume;
         } else {
           frames[keep++] = f;
@@ -401,11 +405,24 @@ struct Daemon::Impl {
     Notify("READY=1");
   }
 
+  // Warm-up before a log's resume point: twice the longest role timeout plus 2 s.
+  void SetResumePoint() {
+    if (!source_is_log || restored_data_time_ns == std::numeric_limits<int64_t>::min()) return;
+    double timeout_s = 0;
+    for (const auto& r : cfg().roles)
+      if (r) timeout_s = std::max(timeout_s, r->timeout_s);
+    for (const auto& v : cfg().validity) timeout_s = std::max(timeout_s, v.timeout_s);
+    const int64_t warmup_ns = static_cast<int64_t>((2.0 + 2.0 * timeout_s) * 1e9);
+    resume_from_ns = restored_data_time_ns - warmup_ns;
+    pipe().mutable_accumulator().SkipThrough(pipe().accumulator().last_sample_ns());
+  }
+
   int Run() {
     ApplyLogLevel();
     LoadState();
     AttachMonitor();
     OpenSource();
+    SetResumePoint();
     spdlog::info("ndsidd: vehicle {}, reading {}{}, publishing on {}", cfg().vehicle.name, source->Describe(),
                  realtime() ? " (realtime)" : "", opt.sink ? "a test sink" : cfg().lcm.url);
     Notify("READY=1");

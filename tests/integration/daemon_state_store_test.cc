@@ -142,9 +142,10 @@ TEST(AccumulatorPersistence, NonFiniteSegmentSampleIsRejectedAndTargetUntouched)
   const config::Config c = testing::DaemonTestConfig();
   stats::Accumulator a(c, c.sync.rate_hz);
   FeedDrive(a, 0, 0, 150);
+  a.Finish();  // the state then ends with the last window segment and the open-drive flag 0
   std::string bytes = a.Serialize();
   const float nan = std::nanf("");
-  std::memcpy(bytes.data() + bytes.size() - sizeof(float), &nan, sizeof nan);  // last sample's a_x
+  std::memcpy(bytes.data() + bytes.size() - 1 - sizeof(float), &nan, sizeof nan);  // last sample's a_x
   stats::Accumulator b(c, c.sync.rate_hz);
   FeedDrive(b, 0, 0, 150);
   const std::string before = b.Serialize();

@@ -193,7 +193,7 @@ TEST(AccumulatorState, RoundTripIsByteIdentical) {
     b.Restore(bytes);
     EXPECT_EQ(b.Serialize(), bytes);
     EXPECT_EQ(b.steady_state(), SteadyStateStats::Deserialize(a.steady_state().Serialize()));
-    EXPECT_EQ(b.window().size(), which == 0 ? 0u : 2u);
+    EXPECT_EQ(b.window().size(), which == 0 ? 0u : 1u);  // the second drive's segment is still open
   }
 }
 
@@ -227,20 +227,168 @@ TEST(AccumulatorState, CorruptedValuesAreRejected) {
   EXPECT_THROW(target.Restore(with_double_at(4, std::numeric_limits<double>::quiet_NaN())), Error);  // gated_s
   EXPECT_THROW(target.Restore(with_double_at(4, -1.0)), Error);
   std::string tag = bytes;
-  tag[3] = '2';
+  tag[3] = '9';
   EXPECT_THROW(target.Restore(tag), Error);
-  // The last segment sample's last float (long acceleration) set to NaN.
-  std::string last = bytes;
+  // The last segment sample's last float (long acceleration) set to NaN; the drive ended, so
+  // the state ends with that segment and the open-drive flag 0.
+  Accumulator finished = Learned(config);
+  finished.Finish();
+  std::string last = finished.Serialize();
+  ASSERT_EQ(last.back(), '\0');
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::memcpy(last.data() + last.size() - sizeof(float), &nan, sizeof nan);
+  std::memcpy(last.data() + last.size() - 1 - sizeof(float), &nan, sizeof nan);
   EXPECT_THROW(target.Restore(last), Error);
+  // An open drive flag that is neither 0 nor followed by its section.
+  std::string open = finished.Serialize();
+  open.back() = '\1';
+  EXPECT_THROW(target.Restore(open), Error);
   EXPECT_TRUE(target.window().empty());
+}
+
+// The drive in progress across a restart (issue 15 item 4). `restart_at` samples into the second
+// drive the state is serialized and restored into a fresh accumulator, and the data go on from a
+// gate that starts again (its drive 0, distance from 0), `gap_s` later.
+struct Fed {
+  Accumulator acc;
+  Feeder f;
+  explicit Fed(const config::Config& c) : acc(c, kSyncHz), f{acc} {}
+};
+void FeedDrives(Feeder& f, int from, int to) {
+  // Drive 0: 3000 accepted samples (600 m, used). Drive 1: 1000 accepted, 30 not, 1500
+  // accepted (two segments; min_drive_km 0.5 is reached at sample 2500, 500 m).
+  for (int i = from; i < to; ++i) {
+    const bool new_drive = i == 0 || i == 3000;
+    const bool accepted = !(i >= 4000 && i < 4030);
+    f.acc.Add(f.Next(accepted, new_drive));
+  }
+}
+constexpr int kTotal = 5530;
+
+// Catches: a restart in the middle of a drive that drops its held-back data (the drive short of
+// min_drive_km at the restart), renumbers it (a different held-out split), or counts it twice.
+TEST(AccumulatorState, TheDriveInProgressGoesOnAfterARestart) {
+  const config::Config config = SmallConfig(20);
+  Fed whole(config);
+  FeedDrives(whole.f, 0, kTotal);
+  whole.acc.Finish();
+  for (int restart_at : {3300, 4015, 5000}) {  // held back (short), between segments, used
+    Fed before(config);
+    FeedDrives(before.f, 0, restart_at);
+    Fed after(config);
+    after.acc.Restore(before.acc.Serialize());
+    after.f.t_ns = before.f.t_ns;  // the data go on; the gate starts again
+    after.f.distance_m = 0;
+    after.f.drive_id = -1;
+    after.f.prev_accepted = false;
+    after.acc.Add(after.f.Next(!(restart_at >= 4000 && restart_at < 4030), true));
+    FeedDrives(after.f, restart_at + 1, kTotal);
+    after.acc.Finish();
+    ASSERT_EQ(after.acc.drives().size(), 2u) << restart_at;
+    EXPECT_EQ(after.acc.drives()[1].drive_id, 1) << restart_at;
+    EXPECT_TRUE(after.acc.drives()[1].used) << restart_at;
+    EXPECT_NEAR(after.acc.drives()[1].distance_km, whole.acc.drives()[1].distance_km, 0.0002 + 1e-9) << restart_at;  // one step
+    EXPECT_NEAR(after.acc.gated_hours(), whole.acc.gated_hours(), 1e-12) << restart_at;
+    EXPECT_EQ(after.acc.steady_state().with_yaw().n(), whole.acc.steady_state().with_yaw().n()) << restart_at;
+    // The same samples in the window but for the cut: drive 1's segment is cut in two at the
+    // restart, and a piece shorter than min_segment_s (4 s = 200 samples at 50 Hz) is counted
+    // as a short segment, as any gated stretch that short.
+    size_t n_after = 0, n_whole = 0;
+    for (const auto& seg : after.acc.window()) {
+      n_after += seg->samples.size();
+      EXPECT_LE(seg->drive_id, 1);
+    }
+    for (const auto& seg : whole.acc.window()) n_whole += seg->samples.size();
+    EXPECT_LE(n_after, n_whole) << restart_at;
+    EXPECT_LE(n_whole - n_after, 201u) << restart_at;
+    EXPECT_NEAR(static_cast<double>(after.acc.counters().short_segment_samples - whole.acc.counters().short_segment_samples),
+                2.0 * static_cast<double>(n_whole - n_after), 2.0)
+        << restart_at;
+    EXPECT_EQ(after.acc.counters().short_drive_samples, 0u) << restart_at;
+  }
+}
+
+// Catches: a restart that cuts the gated segment although the data are re-read seamlessly. The
+// daemon re-reads a log from a few seconds before its resume point (warming up the sync stage
+// and the gate) and tells the accumulator to skip what it has: then the window must be the
+// uninterrupted run's, segment for segment and sample for sample.
+TEST(AccumulatorState, AWarmedUpRestartContinuesTheOpenSegmentExactly) {
+  const config::Config config = SmallConfig(20);
+  Fed whole(config);
+  FeedDrives(whole.f, 0, kTotal);
+  whole.acc.Finish();
+  for (int restart_at : {3300, 3999, 5000}) {
+    Fed before(config);
+    FeedDrives(before.f, 0, restart_at);
+    Fed after(config);
+    after.acc.Restore(before.acc.Serialize());
+    after.acc.SkipThrough(before.acc.last_sample_ns());
+    constexpr int kWarmup = 100;  // 1 s at 100 Hz
+    after.f.t_ns = before.f.t_ns - kWarmup * 10'000'000;
+    after.f.drive_id = -1;
+    after.f.distance_m = 0;
+    after.f.prev_accepted = false;
+    for (int i = restart_at - kWarmup; i < kTotal; ++i) {
+      const bool accepted = !(i >= 4000 && i < 4030);
+      after.acc.Add(after.f.Next(accepted, i == restart_at - kWarmup || i == 3000));
+    }
+    after.acc.Finish();
+    ASSERT_EQ(after.acc.window().size(), whole.acc.window().size()) << restart_at;
+    for (size_t k = 0; k < whole.acc.window().size(); ++k) {
+      const Segment& a = *after.acc.window()[k];
+      const Segment& w = *whole.acc.window()[k];
+      EXPECT_EQ(a.t0_ns, w.t0_ns) << restart_at << " segment " << k;
+      EXPECT_EQ(a.drive_id, w.drive_id) << restart_at << " segment " << k;
+      ASSERT_EQ(a.samples.size(), w.samples.size()) << restart_at << " segment " << k;
+      EXPECT_EQ(0, std::memcmp(a.samples.data(), w.samples.data(), a.samples.size() * sizeof(SegmentSample)))
+          << restart_at << " segment " << k;
+    }
+    EXPECT_NEAR(after.acc.gated_hours(), whole.acc.gated_hours(), 1e-12) << restart_at;
+    EXPECT_EQ(after.acc.counters().short_segment_samples, whole.acc.counters().short_segment_samples) << restart_at;
+  }
+}
+
+// Catches: an open drive continued although the data resumed after a key cycle: it must end
+// there as Finish() would have ended it (short: dropped and counted), the new drive numbered
+// after it.
+TEST(AccumulatorState, ARestartAfterAKeyCycleEndsTheOpenDrive) {
+  config::Config config = SmallConfig(20);
+  config.gate.drive_gap_s = 60;
+  Fed before(config);
+  FeedDrives(before.f, 0, 3300);  // drive 1 short (60 m), held back
+  Fed after(config);
+  after.acc.Restore(before.acc.Serialize());
+  after.f.t_ns = before.f.t_ns + 120'000'000'000;  // two minutes later
+  after.f.drive_id = -1;
+  after.f.distance_m = 0;
+  after.f.Feed(3000, true, true);
+  after.acc.Finish();
+  ASSERT_EQ(after.acc.drives().size(), 3u);
+  EXPECT_FALSE(after.acc.drives()[1].used);
+  EXPECT_EQ(after.acc.drives()[2].drive_id, 2);
+  EXPECT_TRUE(after.acc.drives()[2].used);
+  EXPECT_EQ(after.acc.counters().short_drive_samples, 300u);
+  for (const auto& seg : after.acc.window()) EXPECT_NE(seg->drive_id, 1);
+}
+
+// Catches: a state written before the open drive was kept (tag ACC1) that no longer loads.
+TEST(AccumulatorState, StatesOfTheFirstFormatStillLoad) {
+  const config::Config config = SmallConfig(20);
+  Accumulator finished = Learned(config);
+  finished.Finish();
+  std::string v1 = finished.Serialize();
+  ASSERT_EQ(v1.back(), '\0');  // no open drive
+  v1.pop_back();
+  v1[3] = '1';
+  Accumulator b(config, kSyncHz);
+  b.Restore(v1);
+  EXPECT_EQ(b.Serialize(), finished.Serialize());
 }
 
 // Catches: a restored state learned with a longer window_h kept whole under a shorter one.
 TEST(AccumulatorState, RestoreUnderAShorterWindowEvicts) {
   const config::Config long_window = SmallConfig(20), short_window = SmallConfig(15.0 / 3600);
-  const Accumulator a = Learned(long_window);
+  Accumulator a = Learned(long_window);
+  a.Finish();
   const std::string bytes = a.Serialize();
   Accumulator b(short_window, kSyncHz);
   b.Restore(bytes);

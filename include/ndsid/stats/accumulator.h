@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -49,14 +50,26 @@ class Accumulator {
   double window_hours() const;
   const AccumulatorCounters& counters() const { return counters_; }
 
-  // Persistence (the daemon's learned state). Serialize() writes what Finish() would leave if
-  // the data ended now (the open segment closed, an open drive short of min_drive_km dropped)
-  // without changing this object; binary, host byte order. Restore() replaces everything
-  // learned with a serialized state, checks every value (finite, in range) and throws
-  // ndsid::Error on a malformed or implausible state, leaving this object unchanged. Drives
-  // seen after a restore are numbered after the restored ones.
+  // Persistence (the daemon's learned state). Serialize() writes the learned state without
+  // changing this object; binary, host byte order. The drive in progress is kept open in it,
+  // with its held-back data when it is still short of min_drive_km, and its open segment. Restore() replaces everything learned with a serialized state, checks every
+  // value (finite, in range) and throws ndsid::Error on a malformed or implausible state,
+  // leaving this object unchanged. After a restore the first drive the gate starts continues
+  // the restored open drive (same drive number, its distance and held-back data) when its first
+  // sample comes within gate.drive_gap_s of the drive's last one, as a drive would have gone on
+  // without the restart, and the open segment goes on when that sample is accepted and not a
+  // segment start; otherwise the open drive ends there (as Finish() would have ended it) and
+  // the new drives are numbered after the restored ones. States written before the open drive
+  // was kept (tag ACC1) still load.
   std::string Serialize() const;
   void Restore(const std::string& bytes);
+  // Samples up to this time are ignored: a log re-read after a restart from a few seconds
+  // before its resume point (to warm up the sync stage and the gate) gives them again.
+  void SkipThrough(int64_t t_ns) { skip_through_ns_ = t_ns; }
+  // The time of the last sample added (0 before any).
+  int64_t last_sample_ns() const { return drives_.empty() ? 0 : drives_.back().end_ns; }
+  // The window's drive number of a drive number of the gate (they differ after a restore).
+  int64_t DriveIdOf(int64_t gate_drive_id) const { return gate_drive_id + drive_id_offset_; }
 
  private:
   void CloseSegment();
@@ -87,6 +100,9 @@ class Accumulator {
   int64_t sum_t0_ns_ = 0;
   AccumulatorCounters counters_;
   int64_t drive_id_offset_ = 0;  // added to the gate's drive ids after a Restore()
+  bool resume_open_ = false;     // restored with a drive open: the gate's next drive may continue it
+  double distance_base_km_ = 0;  // a continued drive's distance before the restart
+  int64_t skip_through_ns_ = std::numeric_limits<int64_t>::min();
 };
 
 }  // namespace ndsid::stats
