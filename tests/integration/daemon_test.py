@@ -435,6 +435,66 @@ def FiftySigkillsLoseNothingAndKeepEg():
         case.cleanup()
 
 
+def DiskFullAtPersistKeepsThePreviousStateAndRetries():
+    """Issue 15 item 4: the state directory fills up while ndsidd runs. Every persist then
+    fails (ENOSPC, logged); the previous state stays whole and loadable, no temporary file is
+    left; once space is free again the next periodic persist writes the newer state."""
+    if os.geteuid() != 0:
+        raise Skip("mounting a small tmpfs for the state directory needs root")
+    case = Case("diskfull", drives=3, drive_s=300)
+    mnt = os.path.join(case.dir, "small")
+    os.mkdir(mnt)
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=8m", "tmpfs", mnt], capture_output=True, text=True)
+    if r.returncode != 0:
+        case.cleanup()
+        raise Skip(f"cannot mount a tmpfs: {r.stderr.strip()}")
+    filler = os.path.join(mnt, "filler")
+    try:
+        cfg = case.config(state="small/state")
+        path = os.path.join(mnt, "state", "daemon-test-car.ndsid-state")
+        d = case.start(cfg, "--speed", "20", "--persist-interval-s", "0.2")
+        deadline = time.time() + 30
+        while time.time() < deadline and float(show_state(case, cfg).get("gated_hours", "0") or 0) < 0.01:
+            time.sleep(0.2)
+        check(os.path.exists(path), "no state written before the disk was filled")
+        # Fill the file system: less room than one more state file needs.
+        st = os.statvfs(mnt)
+        with open(filler, "wb") as f:
+            f.write(b"\0" * max(0, st.f_bavail * st.f_frsize - 4096))
+        time.sleep(0.5)  # a persist that was already writing may still land
+        before = open(path, "rb").read()
+        full = show_state(case, cfg)
+        time.sleep(2.0)  # ~10 persist intervals, every one on a full disk
+        check(d.poll() is None, "the daemon ended while the disk was full")
+        during = open(path, "rb").read()
+        check(during == before, "the state changed (or was truncated) while the disk was full")
+        leftovers = [n for n in os.listdir(os.path.dirname(path)) if ".tmp" in n]
+        check(not leftovers, f"temporary files left on the full disk: {leftovers}")
+        os.remove(filler)
+        deadline = time.time() + 10
+        after = full
+        while time.time() < deadline:
+            time.sleep(0.3)
+            after = show_state(case, cfg)
+            if float(after.get("gated_hours", "0") or 0) > float(full.get("gated_hours", "0") or 0):
+                break
+        d.send_signal(signal.SIGTERM)
+        _, err = d.communicate(timeout=60)
+        failures = err.count("cannot write learned state")
+        print(f"state {len(before)} bytes, {full.get('gated_hours')} gated h when the disk filled; "
+              f"{failures} failed persists logged; after freeing space {after.get('gated_hours')} gated h; exit {d.returncode}")
+        check(full["rc"] == 0, "the state left on the full disk does not load")
+        check(failures >= 3, f"only {failures} failed persists logged while the disk was full")
+        check(float(after.get("gated_hours", "0") or 0) > float(full.get("gated_hours", "0") or 0),
+              "no newer state written once space was free again (no retry)")
+        check(d.returncode == 0, f"exit {d.returncode} after SIGTERM with space free again")
+    finally:
+        if os.path.exists(filler):
+            os.remove(filler)
+        subprocess.run(["umount", mnt], capture_output=True)
+        case.cleanup()
+
+
 def CorruptStateIsQuarantined():
     case = Case("corrupt", drives=1, drive_s=200)
     try:
