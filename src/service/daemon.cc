@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <deque>
 #include <cstdio>
 #include <filesystem>
 #include <future>
@@ -121,6 +122,8 @@ struct Daemon::Impl {
   // sync stage needs every role's latest value, the gate its filters), so that the drive and
   // its gated segment go on seamlessly; the accumulator skips the samples it has already.
   int64_t resume_from_ns = std::numeric_limits<int64_t>::min();
+  std::deque<can::CanFrame> recent;  // Remember(): the newest frames, for a reload's warm-up
+  int64_t recent_window_ns = 0;
   uint64_t skipped_resume = 0;
   can::SourceState source_state = can::SourceState::kOk;
   int64_t last_status_ns = 0, last_watchdog_ns = 0, last_persist_ns = 0;
@@ -235,6 +238,7 @@ struct Daemon::Impl {
       frames = frames.first(keep);
     }
     if (frames.empty()) return;
+    Remember(frames);
     if (!realtime()) {
       pipe().ProcessFrames(frames, source->bus_names());
       return;
@@ -394,9 +398,14 @@ struct Daemon::Impl {
       }
       if (persist_job.valid()) persist_job.get();
       store = std::make_unique<StateStore>(n.state_dir, n.vehicle.name);
+      next.pipeline->mutable_accumulator().SkipThrough(next.pipeline->accumulator().last_sample_ns());
       est = std::move(next);
       sink = std::move(next_sink);
       AttachMonitor();
+      // Warm the new pipeline up on the newest frames (the accumulator skips what it has).
+      const std::vector<can::CanFrame> warmup(recent.begin(), recent.end());
+      if (source) pipe().ProcessFrames(warmup, source->bus_names());
+      recent_window_ns = WarmupNs();
       ApplyLogLevel();
       spdlog::info("configuration reloaded; learned state kept ({:.4f} gated h)", pipe().accumulator().gated_hours());
     } catch (const std::exception& e) {
@@ -405,16 +414,36 @@ struct Daemon::Impl {
     Notify("READY=1");
   }
 
-  // Warm-up before a log's resume point: twice the longest role timeout plus 2 s.
-  void SetResumePoint() {
-    if (!source_is_log || restored_data_time_ns == std::numeric_limits<int64_t>::min()) return;
+  // Data a fresh pipeline needs before its samples match the running one's: every role's latest
+  // value (the sync stage) and the gate's filters: twice the longest role timeout plus 2 s.
+  int64_t WarmupNs() const {
     double timeout_s = 0;
     for (const auto& r : cfg().roles)
       if (r) timeout_s = std::max(timeout_s, r->timeout_s);
     for (const auto& v : cfg().validity) timeout_s = std::max(timeout_s, v.timeout_s);
-    const int64_t warmup_ns = static_cast<int64_t>((2.0 + 2.0 * timeout_s) * 1e9);
-    resume_from_ns = restored_data_time_ns - warmup_ns;
+    return static_cast<int64_t>((2.0 + 2.0 * timeout_s) * 1e9);
+  }
+
+  // A log resumed after a restart is re-read from WarmupNs() before its resume point.
+  void SetResumePoint() {
+    if (!source_is_log || restored_data_time_ns == std::numeric_limits<int64_t>::min()) return;
+    resume_from_ns = restored_data_time_ns - WarmupNs();
     pipe().mutable_accumulator().SkipThrough(pipe().accumulator().last_sample_ns());
+  }
+
+  // The newest WarmupNs() of frames, replayed into the new pipeline of a SIGHUP reload (the
+  // source goes on and cannot be re-read), so that the drive's gated segment goes on too.
+  void Remember(std::span<const can::CanFrame> frames) {
+    if (frames.empty()) return;
+    if (!recent.empty() && frames.front().timestamp_ns < recent.back().timestamp_ns) recent.clear();  // stamps went back
+    try {
+      recent.insert(recent.end(), frames.begin(), frames.end());
+    } catch (...) {  // out of memory: a reload then cuts the segment, nothing else
+      recent.clear();
+      return;
+    }
+    const int64_t keep_from = frames.back().timestamp_ns - recent_window_ns;
+    while (!recent.empty() && recent.front().timestamp_ns < keep_from) recent.pop_front();
   }
 
   int Run() {
@@ -423,6 +452,7 @@ struct Daemon::Impl {
     AttachMonitor();
     OpenSource();
     SetResumePoint();
+    recent_window_ns = WarmupNs();
     spdlog::info("ndsidd: vehicle {}, reading {}{}, publishing on {}", cfg().vehicle.name, source->Describe(),
                  realtime() ? " (realtime)" : "", opt.sink ? "a test sink" : cfg().lcm.url);
     Notify("READY=1");
