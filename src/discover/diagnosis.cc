@@ -515,11 +515,20 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
         continue;
       }
       const double before = held_out(fit), after = held_out(f2);
-      // BIC with an effective sample size (residuals are autocorrelated): n_eff = n / tau; with
-      // two outputs each output's term, on its own residuals.
-      const double n_eff = static_cast<double>(f2.residuals_train) / 25.0;
+      // BIC with an effective sample size (residuals are autocorrelated): n_eff = n / tau, tau
+      // the integrated autocorrelation time of the refit's own residuals (the one noise
+      // estimate, ResidualNoiseLevel = sigma^2 tau, as the covariance uses it); with two outputs
+      // each output's term, on its own residuals.
+      auto tau = [](double noise_level, double rmse) {
+        const double t = rmse > 0 ? noise_level / (rmse * rmse) : 0.0;
+        return std::isfinite(t) && t >= 1.0 ? t : 1.0;
+      };
+      const double n_eff = static_cast<double>(f2.residuals_train) / tau(f2.noise_level_a_y, f2.rmse_train_mps2);
       const bool both = fit.yaw_rate_output && f2.yaw_rate_output && fit.rmse_train_yaw_radps > 0 && f2.rmse_train_yaw_radps > 0;
-      const double n_eff_r = both ? static_cast<double>(f2.residuals_train_yaw) / 25.0 : 0.0;
+      const double n_eff_r =
+          both ? static_cast<double>(f2.residuals_train_yaw) / tau(f2.noise_level_yaw_rate, f2.rmse_train_yaw_radps) : 0.0;
+      spdlog::debug("ladder: + {}: effective samples {:.0f} (tau {:.1f})", c.effect, n_eff,
+                    static_cast<double>(f2.residuals_train) / std::max(n_eff, 1.0));
       double dbic = n_eff * std::log((f2.rmse_train_mps2 * f2.rmse_train_mps2) / (fit.rmse_train_mps2 * fit.rmse_train_mps2)) +
                     (f2.effect_params.size() - fit.effect_params.size()) * std::log(std::max(n_eff + n_eff_r, 2.0));
       if (both) dbic += n_eff_r * std::log((f2.rmse_train_yaw_radps * f2.rmse_train_yaw_radps) / (fit.rmse_train_yaw_radps * fit.rmse_train_yaw_radps));
