@@ -78,9 +78,10 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
     }
     WriteFileAtomically((d / "compare.csv").string(), csv);
   }
-  {  // bins.csv
-    std::string csv = "group,label,model,n,clusters,bias_mps2,se_mps2,rmse_mps2,verdict\n";
-    for (const Bin& b : c.bins)
+  // bins.csv (a_y, m/s^2) and yaw_bins.csv (the yaw rate, deg/s): the where-it-fails tables.
+  auto write_bins = [&](const std::vector<Bin>& bins, const std::string& unit, const char* file) {
+    std::string csv = "group,label,model,n,clusters,bias_" + unit + ",se_" + unit + ",rmse_" + unit + ",verdict\n";
+    for (const Bin& b : bins)
       for (size_t m = 0; m < nm; ++m) {
         const BinStats& s = b.per_model[m];
         char line[256];
@@ -89,21 +90,10 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
                       VerdictText(s.verdict));
         csv += line;
       }
-    WriteFileAtomically((d / "bins.csv").string(), csv);
-  }
-  if (c.has_yaw_rate) {  // yaw_bins.csv: the same bins on the yaw-rate residual [deg/s]
-    std::string csv = "group,label,model,n,clusters,bias_degps,se_degps,rmse_degps,verdict\n";
-    for (const Bin& b : c.yaw_bins)
-      for (size_t m = 0; m < nm; ++m) {
-        const BinStats& s = b.per_model[m];
-        char line[256];
-        std::snprintf(line, sizeof line, "\"%s\",\"%s\",%s,%zu,%d,%.6g,%.6g,%.6g,%s\n", b.group.c_str(), b.label.c_str(),
-                      c.models[m].label.c_str(), s.n, s.clusters, s.bias, std::isfinite(s.se) ? s.se : -1.0, s.rmse,
-                      VerdictText(s.verdict));
-        csv += line;
-      }
-    WriteFileAtomically((d / "yaw_bins.csv").string(), csv);
-  }
+    WriteFileAtomically((d / file).string(), csv);
+  };
+  write_bins(c.bins, "mps2", "bins.csv");
+  if (c.has_yaw_rate) write_bins(c.yaw_bins, "degps", "yaw_bins.csv");
   nlohmann::json j;
   j["data"] = data.outcome.name;
   j["wheelbase_m"] = data.config.vehicle.wheelbase_m;
