@@ -254,7 +254,13 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   // Standstill evidence (docs/two-outputs.md): each prior Identify would use becomes one
   // pseudo-observation sqrt(w) (value - x) / sd of its parameter, in the a_y residuals' units (w
   // their noise level sigma^2 tau), and its own cluster in the robust variance. So a standing
-  // car's mean a_y speaks for accel_bias in the ranking as it does in the fit.
+  // car's mean a_y speaks for accel_bias in the ranking as it does in the fit. Its cluster's
+  // variance is the model-based one, w a a' (under the null its residual has variance w, the
+  // stops' standard error being in sd), not the realised (a r)^2: one cluster that carries a
+  // strong signal alone would make its own realised score the whole variance and hold |z| at
+  // about 1 however clear the evidence (a hidden 0.4 deg/s gyro offset read z -1.1 that way).
+  std::vector<Eigen::VectorXd> evidence_rows;
+  double evidence_w = 0;
   {
     std::set<int64_t> drives;
     for (const Chunk& c : chunks) drives.insert(c.drive_id);
@@ -269,7 +275,8 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
       const double r = std::sqrt(w) * (sp.value - x[static_cast<size_t>(col)]) / sp.sd;
       M += a * a.transpose();
       Ae += a * r;
-      chunk_Ae.push_back(a * r);
+      evidence_rows.push_back(a);
+      evidence_w = w;
       d.evidence.push_back(sp);
     }
   }
@@ -313,6 +320,11 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
       double sc = ae[col];
       for (int f = 0; f < nf; ++f) sc -= B(f, a) * ae[fitted[f]];
       var += sc * sc;
+    }
+    for (const auto& row : evidence_rows) {
+      double sc = row[col];
+      for (int f = 0; f < nf; ++f) sc -= B(f, a) * row[fitted[f]];
+      var += evidence_w * sc * sc;
     }
     s.z_robust = var > 0 ? zte / std::sqrt(var) : 0.0;
     s.significant = std::abs(s.z_robust) > options.z_threshold;

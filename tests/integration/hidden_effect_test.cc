@@ -153,6 +153,35 @@ TEST(HiddenEffectLong, AccelerometerBiasFoundWithStandstillEvidence) {
   RunCase({"bias_standstill_2", {"accel_bias_mps2=0.09"}, {"accel_bias"}, {}, "accel_bias_mps2", 0.09, 0.02}, 55, 1.5);
 }
 
+// Two outputs (identification.outputs [a_y, yaw_rate]), issue "two outputs and real sensors"
+// item 5. A gyro offset: with road_bank in the start model the bank observer makes the model's
+// yaw rate follow the measured one, so the offset leaves a bank of about r0/G and in a_y a
+// residual of -l r0 / (v EG), which a steering offset explains in part. The stops' mean yaw
+// rate is the offset itself: with that evidence gyro_offset is ranked first and added, and the
+// observer then reads r_meas - r0.
+TEST(HiddenEffectLong, GyroOffsetFoundWithTwoOutputs) {
+  HiddenCase c{"gyro", {"gyro_offset_degps=0.4"}, {"gyro_offset"}, {}, "gyro_offset_radps", 0.4 * M_PI / 180,
+               0.02 * M_PI / 180};
+  c.two_outputs = true;
+  RunCase(c, 61, 1.5);
+}
+
+// A gyro offset and a steering offset together, other signs and magnitudes: both are added
+// (one after the other), EG within 1 %.
+TEST(HiddenEffectLong, GyroAndSteeringOffsetsFoundTogetherWithTwoOutputs) {
+  HiddenCase c{"gyro_steer", {"gyro_offset_degps=-0.3", "steer_offset_deg=1.2"}, {"gyro_offset", "steer_offset"}, {},
+               "gyro_offset_radps", -0.3 * M_PI / 180, 0.02 * M_PI / 180};
+  c.two_outputs = true;
+  RunCase(c, 62, 1.5);
+}
+
+// Clean data with two outputs: the yaw-rate sensor effects are candidates too; nothing is added.
+TEST(HiddenEffectLong, CleanDataNothingAddedWithTwoOutputs) {
+  HiddenCase c{"none2", {}, {}, {}, "", 0, 0};
+  c.two_outputs = true;
+  RunCase(c, 65, 1.5);
+}
+
 // A signal time skew is what step 0 (time alignment) is for: an 80 ms steering skew is found
 // there and the ladder, on the aligned data, adds nothing. Stated tolerance +-32 ms (40 %): the
 // steering lag's sensitivity is only 21 % unique (it trades with lv and Jz).
