@@ -124,14 +124,19 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   // Two outputs (identification.outputs [a_y, yaw_rate]): the score tests stack both outputs'
   // residuals, each weighted by 1/sqrt(its noise level), as the fit does; yaw-rate sensor effects
   // and the ones that need the yaw rate are then candidates too.
+  // With a_y alone, a yaw-rate sensor effect reaches a_y only through an effect that reads the
+  // measured yaw rate (road_bank's observer turns a gyro offset into a bank): then it is scored,
+  // otherwise not; accel_scale (needs the yaw rate as an output) is not.
   const bool two_outputs = identifier.config().yaw_rate_output;
-  if (options.candidates.empty() && !two_outputs) {  // a_y alone: yaw-rate sensor effects are not scored
+  const bool reads_r = std::any_of(spec.effects().begin(), spec.effects().end(),
+                                   [](const auto& e) { return e->info().reads_measured_yaw_rate; });
+  if (options.candidates.empty() && !two_outputs) {
     candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                     [&](const std::string& c) {
                                       const auto builtin = model::BuiltinEffectNames();
                                       if (std::find(builtin.begin(), builtin.end(), c) == builtin.end()) return false;
                                       const model::ModelSpec one = model::ModelSpec::FromNames({c});
-                                      return !one.effects().empty() && (one.effects()[0]->info().yaw_rate_sensor ||
+                                      return !one.effects().empty() && ((one.effects()[0]->info().yaw_rate_sensor && !reads_r) ||
                                                                         one.effects()[0]->info().needs_yaw_rate_output);
                                     }),
                      candidates.end());

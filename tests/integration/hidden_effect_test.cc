@@ -175,6 +175,23 @@ TEST(HiddenEffectLong, GyroAndSteeringOffsetsFoundTogetherWithTwoOutputs) {
   RunCase(c, 62, 1.5);
 }
 
+// The same gyro offset with a_y alone (the default outputs): road_bank's observer reads the
+// measured yaw rate, so the offset reaches a_y through the bank it builds (-l r0 / (v EG)), and
+// gyro_offset is a candidate whenever such an effect is in the model. The stops fix it.
+TEST(HiddenEffectLong, GyroOffsetFoundWithAyAloneThroughTheBankObserver) {
+  RunCase({"gyro_ay", {"gyro_offset_degps=0.35"}, {"gyro_offset"}, {}, "gyro_offset_radps", 0.35 * M_PI / 180,
+           0.02 * M_PI / 180},
+          66, 1.5);
+}
+
+// Accelerometer bias with two outputs and the standstill evidence: a_y - v r shows the bias
+// and the stops read it; ranked first and added.
+TEST(HiddenEffectLong, AccelerometerBiasFoundWithTwoOutputs) {
+  HiddenCase c{"bias2", {"accel_bias_mps2=0.15"}, {"accel_bias"}, {}, "accel_bias_mps2", 0.15, 0.02};
+  c.two_outputs = true;
+  RunCase(c, 67, 1.5);
+}
+
 // Clean data with two outputs: the yaw-rate sensor effects are candidates too; nothing is added.
 TEST(HiddenEffectLong, CleanDataNothingAddedWithTwoOutputs) {
   HiddenCase c{"none2", {}, {}, {}, "", 0, 0};

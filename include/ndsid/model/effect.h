@@ -42,8 +42,12 @@ struct EffectInfo {
   std::vector<EffectParam> params;
   int num_states = 0;        // extra states carried between samples
   // Acts only through the yaw-rate measurement (and what reads the measured yaw rate, road_bank's
-  // observer): gyro_offset, gyro_scale. Not a default candidate of the a_y-only diagnosis.
+  // observer): gyro_offset, gyro_scale. A default candidate of the a_y-only diagnosis only when
+  // the model has an effect that reads the measured yaw rate (below): otherwise a_y cannot see it.
   bool yaw_rate_sensor = false;
+  // Reads the measured yaw rate as an input (road_bank's observer): a gyro error reaches a_y
+  // through it, so the yaw-rate sensor effects are candidates even when a_y alone is fitted.
+  bool reads_measured_yaw_rate = false;
   // Identifiable only with the yaw rate as an output (accel_scale: from a_y alone it trades with
   // is). Not a default candidate of the a_y-only diagnosis either.
   bool needs_yaw_rate_output = false;

@@ -34,7 +34,8 @@ class RoadBank final : public EffectImpl<RoadBank> {
                     .signature = "low-frequency, per road; steering on straights without lateral acceleration",
                     .params = {{.name = "road_bank_gain", .unit = "-",
                                 .lower = 0.0, .upper = 5.0, .initial = 1.0, .neutral = 0.0, .typical = 1.0}},
-                    .num_states = 1}) {}
+                    .num_states = 1,
+                    .reads_measured_yaw_rate = true}) {}
   template <class T>
   void ForcesT(const T* eta, const Params<T>&, double, const AxleSlip<T>&, const State<T>&, const ModelInputs<T>&,
                const T* states, ForceTerms<T>& f) const {
