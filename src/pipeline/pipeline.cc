@@ -13,6 +13,8 @@ namespace ndsid::pipeline {
 namespace {
 // Below this the wheel speeds' quantisation and the speed signal's dead band dominate.
 constexpr double kWheelCheckMinSpeed_mps = 2.0;
+// The window's standstill stops kept as evidence (and persisted): the newest this many.
+constexpr size_t kMaxStops = 100000;
 }  // namespace
 
 Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
@@ -95,13 +97,35 @@ void Pipeline::ConsumeSamples() noexcept {
   }
   std::vector<gate::StandstillStop> stops = gate_.TakeStops();
   if (stops.empty()) return;
-  for (gate::StandstillStop& st : stops) st.drive_id = accumulator_.DriveIdOf(st.drive_id);  // the window's numbering
-  try {
-    stops_.insert(stops_.end(), stops.begin(), stops.end());
-  } catch (...) {  // out of memory: these stops are lost as evidence, nothing else
+  for (gate::StandstillStop& st : stops) {
+    st.drive_id = accumulator_.DriveIdOf(st.drive_id);  // the window's numbering
+    // After a restart the log is re-read from a little before the resume point (the warm-up):
+    // a stop already kept (persisted) is not counted twice. Same drive, overlapping in time.
+    const auto start = [](const gate::StandstillStop& s) { return static_cast<double>(s.t_start_ns); };
+    const auto end = [](const gate::StandstillStop& s) { return static_cast<double>(s.t_start_ns) + s.seconds * 1e9; };
+    // stops_ is ordered by drive: only the newest drive's stops need looking at.
+    bool known = false;
+    for (auto k = stops_.rbegin(); k != stops_.rend() && k->drive_id >= st.drive_id && !known; ++k)
+      known = k->drive_id == st.drive_id && start(*k) < end(st) && start(st) < end(*k);
+    if (known) continue;
+    try {
+      if (stops_.size() >= kMaxStops) stops_.pop_front();  // bounded like the gate's own list
+      stops_.push_back(st);
+    } catch (...) {  // out of memory: this stop is lost as evidence, nothing else
+    }
   }
+  DropStopsBeforeWindow();
+}
+
+void Pipeline::DropStopsBeforeWindow() {
   const auto& window = accumulator_.window();
   while (!stops_.empty() && !window.empty() && stops_.front().drive_id < window.front()->drive_id) stops_.pop_front();
+}
+
+void Pipeline::RestoreStops(const std::vector<gate::StandstillStop>& stops) {
+  const size_t n = std::min(stops.size(), kMaxStops);
+  stops_.assign(stops.end() - static_cast<std::ptrdiff_t>(n), stops.end());
+  DropStopsBeforeWindow();
 }
 
 void Pipeline::Finish() {

@@ -568,6 +568,11 @@ int ShowState(const std::string& config_path) {
               "identifications: %d\n",
               st.vehicle.c_str(), st.data_time_ns * 1e-9, acc.gated_hours(), acc.drives().size(), used, acc.window().size(),
               acc.window_hours(), st.identifications);
+  {
+    double seconds = 0;
+    for (const gate::StandstillStop& s : st.stops) seconds += s.seconds;
+    std::printf("standstill: %zu stops, %.2f s\n", st.stops.size(), seconds);
+  }
   if (st.last_estimate) {
     const auto& f = st.last_estimate->fit;
     const std::string why = CheckEstimate(*st.last_estimate, c);

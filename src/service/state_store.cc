@@ -1,3 +1,4 @@
+#include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
 #include <cerrno>
@@ -7,6 +8,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -227,6 +229,69 @@ pipeline::Estimate DecodeEstimate(const std::string& text) {
   return e;
 }
 
+// ---- Standstill stops as JSON -------------------------------------------------------------
+// [{"drive":n,"t_start_ns":n,"seconds":x,"samples":n,"mean_lat_accel_mps2":x,
+//   "mean_yaw_rate_radps":x|null}, ...]  (null: the bus had no yaw rate)
+
+std::string EncodeStops(const std::vector<gate::StandstillStop>& stops) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const gate::StandstillStop& s : stops) {
+    nlohmann::json j{{"drive", s.drive_id}, {"t_start_ns", s.t_start_ns}, {"seconds", s.seconds}, {"samples", s.samples},
+                     {"mean_lat_accel_mps2", s.mean_lat_accel_mps2}};
+    j["mean_yaw_rate_radps"] = std::isfinite(s.mean_yaw_rate_radps) ? nlohmann::json(s.mean_yaw_rate_radps) : nlohmann::json();
+    a.push_back(std::move(j));
+  }
+  return a.dump();
+}
+
+std::vector<gate::StandstillStop> DecodeStops(const std::string& text) {
+  using K = StateFileError::Kind;
+  nlohmann::json a;
+  try {
+    a = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw StateFileError(K::kCorrupt, std::string("state: standstill section: ") + e.what());
+  }
+  if (!a.is_array()) throw StateFileError(K::kCorrupt, "state: standstill section is not an array");
+  if (a.size() > kMaxPersistedStops) {
+    throw StateFileError(K::kCorrupt, "state: standstill section holds " + std::to_string(a.size()) + " stops (at most " +
+                                          std::to_string(kMaxPersistedStops) + ")");
+  }
+  std::vector<gate::StandstillStop> out;
+  out.reserve(a.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    const nlohmann::json& j = a[i];
+    const std::string where = "state: standstill stop " + std::to_string(i) + ": ";
+    auto number = [&](const char* key) -> const nlohmann::json& {
+      if (!j.is_object() || !j.contains(key) || !j[key].is_number())
+        throw StateFileError(K::kCorrupt, where + "'" + key + "' missing or not a number");
+      return j[key];
+    };
+    auto integer = [&](const char* key) -> const nlohmann::json& {
+      const nlohmann::json& v = number(key);
+      if (!v.is_number_integer()) throw StateFileError(K::kCorrupt, where + "'" + key + "' is not an integer");
+      return v;
+    };
+    gate::StandstillStop s;
+    s.drive_id = integer("drive").get<int64_t>();
+    s.t_start_ns = integer("t_start_ns").get<int64_t>();
+    if (!integer("samples").is_number_unsigned()) throw StateFileError(K::kCorrupt, where + "'samples' is negative");
+    s.samples = j["samples"].get<uint64_t>();
+    s.seconds = number("seconds").get<double>();
+    s.mean_lat_accel_mps2 = number("mean_lat_accel_mps2").get<double>();
+    if (!j.contains("mean_yaw_rate_radps")) throw StateFileError(K::kCorrupt, where + "'mean_yaw_rate_radps' missing");
+    const nlohmann::json& r = j["mean_yaw_rate_radps"];
+    if (!r.is_null() && !r.is_number()) throw StateFileError(K::kCorrupt, where + "'mean_yaw_rate_radps' not a number");
+    s.mean_yaw_rate_radps = r.is_null() ? std::numeric_limits<double>::quiet_NaN() : r.get<double>();
+    // A stop is at most a (very long) parking of 10^7 s; the mean a_y a few g at the most.
+    if (s.drive_id < 0 || s.samples == 0 || !(s.seconds > 0 && s.seconds <= 1e7) || !(std::abs(s.mean_lat_accel_mps2) <= 1e3) ||
+        !(std::isnan(s.mean_yaw_rate_radps) || std::abs(s.mean_yaw_rate_radps) <= 1e3))
+      throw StateFileError(K::kCorrupt, where + "out of range (drive, samples, seconds, mean a_y or mean yaw rate)");
+    out.push_back(s);
+  }
+  return out;
+}
+
 // ---- Sections ----------------------------------------------------------------------------
 
 void PutSection(std::string& out, const std::string& name, const std::string& bytes) {
@@ -304,6 +369,7 @@ std::string EncodeState(const LearnedState& st) {
   PutSection(payload, "accumulator", st.accumulator);
   PutSection(payload, "adequacy", st.adequacy);
   if (st.last_estimate) PutSection(payload, "estimate", EncodeEstimate(*st.last_estimate));
+  if (!st.stops.empty()) PutSection(payload, "standstill", EncodeStops(st.stops));
   char checksum[17];
   std::snprintf(checksum, sizeof checksum, "%016llx", static_cast<unsigned long long>(Fnv1a64(payload)));
   std::string out;
@@ -366,6 +432,7 @@ LearnedState DecodeState(const std::string& bytes, const std::string& vehicle) {
   st.accumulator = section("accumulator");
   st.adequacy = section("adequacy");
   if (sections.count("estimate")) st.last_estimate = DecodeEstimate(sections.at("estimate"));
+  if (sections.count("standstill")) st.stops = DecodeStops(sections.at("standstill"));
   return st;
 }
 
@@ -449,6 +516,8 @@ LearnedState CaptureState(const pipeline::Pipeline& pipeline, const config::Conf
   st.accumulator = pipeline.accumulator().Serialize();
   st.adequacy = pipeline.adequacy().Serialize();
   st.last_estimate = pipeline.last_estimate();
+  const auto& stops = pipeline.stops();  // the newest kMaxPersistedStops (a loader's limit)
+  st.stops.assign(stops.end() - static_cast<std::ptrdiff_t>(std::min(stops.size(), kMaxPersistedStops)), stops.end());
   return st;
 }
 
@@ -506,6 +575,7 @@ void RestoreState(pipeline::Pipeline& pipeline, const config::Config& config, co
   pipeline.mutable_accumulator().Restore(st.accumulator);
   pipeline.mutable_adequacy().Deserialize(st.adequacy);
   pipeline.RestoreLastEstimate(std::move(last), std::min(st.last_fit_gated_hours, pipeline.accumulator().gated_hours()));
+  pipeline.RestoreStops(st.stops);
 }
 
 }  // namespace ndsid::service

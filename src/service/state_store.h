@@ -10,7 +10,8 @@
 //   payload_bytes <n>\n
 //   payload_fnv1a64 <16 hex digits>\n
 //   \n
-//   <payload: sections "<name> <bytes>\n<bytes>\n": meta, accumulator, adequacy, estimate>
+//   <payload: sections "<name> <bytes>\n<bytes>\n": meta, accumulator, adequacy, estimate,
+//    standstill (a JSON array of the window's stops; absent in older files: no stops)>
 //
 // Threads: CaptureState/RestoreState on the reading thread (they touch the pipeline); Encode and
 // StateStore::Save may run on the persist helper (they touch only the captured LearnedState).
@@ -20,6 +21,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "ndsid/common/error.h"
 #include "ndsid/pipeline/pipeline.h"
@@ -37,7 +39,11 @@ struct LearnedState {
   std::string accumulator;        // stats::Accumulator::Serialize()
   std::string adequacy;           // adequacy::Tracker::Serialize()
   std::optional<pipeline::Estimate> last_estimate;
+  std::vector<gate::StandstillStop> stops;  // the window's standstill stops (evidence)
 };
+
+// At most this many stops in a state file (the gate keeps at most 100 000 while running).
+inline constexpr size_t kMaxPersistedStops = 100000;
 
 // Why a file could not be used.
 class StateFileError : public Error {

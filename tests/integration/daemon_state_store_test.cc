@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 
 #include "daemon_test_config.h"
 #include "ndsid/common/atomic_file.h"
@@ -166,6 +168,105 @@ TEST_F(StateTest, FileRoundTripsEveryLearnedValue) {
   EXPECT_EQ(back.last_estimate->fit.params[5].value, 14.8);
   EXPECT_TRUE(back.last_estimate->fit.params[0].fixed);
   EXPECT_EQ(back.last_estimate->fit.reason, "line one line two");
+}
+
+// Standstill stops (the evidence on the gyro offset and the accelerometer bias) are part of the
+// learned state: a restart keeps them instead of starting the evidence again.
+std::vector<gate::StandstillStop> TwoStops() {
+  gate::StandstillStop a;
+  a.drive_id = 0;
+  a.t_start_ns = 12'000'000'000;
+  a.seconds = 14.37;
+  a.samples = 1437;
+  a.mean_lat_accel_mps2 = 0.123456789012345;
+  a.mean_yaw_rate_radps = -0.0069813170079773;
+  gate::StandstillStop b = a;
+  b.t_start_ns = 80'000'000'000;
+  b.samples = 300;
+  b.seconds = 3.0;
+  b.mean_lat_accel_mps2 = -0.05;
+  b.mean_yaw_rate_radps = std::numeric_limits<double>::quiet_NaN();  // a bus without a yaw rate
+  return {a, b};
+}
+
+// Re-seals a state file after editing its standstill section (the section's length, the
+// header's size and checksum).
+std::string EditPayload(const std::string& bytes, const std::string& from, const std::string& to) {
+  const size_t body = bytes.find("\n\n") + 2;
+  std::string payload = bytes.substr(body);
+  const size_t at = payload.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at == std::string::npos) return bytes;
+  payload.replace(at, from.size(), to);
+  const size_t head = payload.find("standstill ");
+  EXPECT_NE(head, std::string::npos);
+  if (head == std::string::npos) return bytes;
+  const size_t eol = payload.find('\n', head);
+  const long n = std::stol(payload.substr(head + 11, eol - head - 11)) + static_cast<long>(to.size()) - static_cast<long>(from.size());
+  payload.replace(head, eol - head, "standstill " + std::to_string(n));
+  const size_t l3 = bytes.find('\n', bytes.find('\n') + 1) + 1;  // after the vehicle line
+  char checksum[17];
+  std::snprintf(checksum, sizeof checksum, "%016llx", static_cast<unsigned long long>(service::Fnv1a64(payload)));
+  return bytes.substr(0, l3) + "payload_bytes " + std::to_string(payload.size()) + "\npayload_fnv1a64 " + checksum + "\n\n" +
+         payload;
+}
+
+TEST_F(StateTest, StandstillStopsRoundTripExactly) {
+  service::LearnedState st = MakeState();
+  st.stops = TwoStops();
+  const service::LearnedState back = service::DecodeState(service::EncodeState(st), config_.vehicle.name);
+  ASSERT_EQ(back.stops.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back.stops[i].drive_id, st.stops[i].drive_id);
+    EXPECT_EQ(back.stops[i].t_start_ns, st.stops[i].t_start_ns);
+    EXPECT_EQ(back.stops[i].seconds, st.stops[i].seconds);
+    EXPECT_EQ(back.stops[i].samples, st.stops[i].samples);
+    EXPECT_EQ(back.stops[i].mean_lat_accel_mps2, st.stops[i].mean_lat_accel_mps2);
+  }
+  EXPECT_EQ(back.stops[0].mean_yaw_rate_radps, st.stops[0].mean_yaw_rate_radps);
+  EXPECT_TRUE(std::isnan(back.stops[1].mean_yaw_rate_radps));
+  // A state written before stops were persisted (no section) loads with none.
+  const service::LearnedState old = service::DecodeState(service::EncodeState(MakeState()), config_.vehicle.name);
+  EXPECT_TRUE(old.stops.empty());
+  EXPECT_EQ(service::EncodeState(MakeState()).find("standstill"), std::string::npos);
+}
+
+TEST_F(StateTest, MalformedStandstillStopIsCorruptAndLocated) {
+  service::LearnedState st = MakeState();
+  st.stops = TwoStops();
+  const std::string bytes = service::EncodeState(st);
+  const struct {
+    const char* from;
+    const char* to;
+    const char* says;
+  } cases[] = {{"\"samples\":300", "\"samples\":0  ", "stop 1: out of range"},
+               {"\"seconds\":3.0", "\"seconds\":\"3\"", "stop 1: 'seconds' missing or not a number"},
+               {"\"drive\":0", "\"drive\":0.5", "stop 0: 'drive' is not an integer"},
+               {"[{", "[[{", "standstill section: [json.exception.parse_error"},
+               {"\"mean_yaw_rate_radps\":null", "\"mean_yaw_rate_radps\":true", "stop 1: 'mean_yaw_rate_radps' not a number"}};
+  for (const auto& c : cases) {
+    try {
+      service::DecodeState(EditPayload(bytes, c.from, c.to), config_.vehicle.name);
+      ADD_FAILURE() << "no error for " << c.to;
+    } catch (const service::StateFileError& e) {
+      EXPECT_EQ(e.kind(), service::StateFileError::Kind::kCorrupt);
+      EXPECT_NE(std::string(e.what()).find(c.says), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST_F(StateTest, RestoreGivesThePipelineTheStops) {
+  const dbc::Database db = dbc::ParseDbcFile(config_.dbc);
+  pipeline::Pipeline pipeline(config_, db);
+  service::LearnedState st = MakeState();
+  st.stops = TwoStops();
+  std::string dropped;
+  service::RestoreState(pipeline, config_, st, dropped);
+  ASSERT_EQ(pipeline.stops().size(), 2u);
+  EXPECT_EQ(pipeline.stops()[0].mean_yaw_rate_radps, st.stops[0].mean_yaw_rate_radps);
+  const service::LearnedState again = service::CaptureState(pipeline, config_, 3);
+  ASSERT_EQ(again.stops.size(), 2u);
+  EXPECT_EQ(again.stops[1].t_start_ns, st.stops[1].t_start_ns);
 }
 
 TEST_F(StateTest, FlippedPayloadByteIsCorrupt) {

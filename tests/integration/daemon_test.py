@@ -428,6 +428,13 @@ def FiftySigkillsLoseNothingAndKeepEg():
         print(f"uninterrupted EG {eg_ref:.6e} ± {sigma_ref:.2e} ({hours_ref:.4f} h, drives {st_ref.get('drives')}); "
               f"after 50 SIGKILLs EG {eg:.6e} ({hours:.4f} h, drives {st.get('drives')}); "
               f"difference {(eg - eg_ref) / sigma_ref:+.3f} sigma, {3600 * (hours - hours_ref):+.1f} gated s")
+        # The standstill stops (gyro-offset / accelerometer-bias evidence) are persisted too: a stop
+        # the kill cut is re-recorded from the warm-up (a little shorter), none is counted twice.
+        stops_ref = int(st_ref.get("standstill", "0 stops").split()[0])
+        stops = int(st.get("standstill", "0 stops").split()[0])
+        print(f"standstill: uninterrupted {st_ref.get('standstill')}, after the kills {st.get('standstill')}")
+        check(stops_ref > 0, "the reference run recorded no standstill (the check would be empty)")
+        check(0.9 * stops_ref <= stops <= stops_ref, "standstill stops lost or counted twice across the restarts")
         check(st.get("drives") == st_ref.get("drives"), "the drives differ: a restart renumbered or split a drive")
         check(abs(eg - eg_ref) <= 0.1 * sigma_ref, "EG after the kills differs from the uninterrupted run by more than 0.1 sigma")
         check(abs(3600 * (hours - hours_ref)) <= 1.0, "gated time lost or counted twice (more than 1 s)")

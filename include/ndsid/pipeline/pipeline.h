@@ -114,9 +114,16 @@ class Pipeline {
     last_ = std::move(last);
     last_fit_gated_hours_ = last_fit_gated_hours;
   }
+  // The standstill stops of the window's drives (evidence on the gyro offset and the
+  // accelerometer bias), persisted with the learned state so a restart keeps them.
+  const std::deque<gate::StandstillStop>& stops() const { return stops_; }
+  // Replaces the stops (after the accumulator is restored: stops of drives older than its
+  // window are dropped, as while running).
+  void RestoreStops(const std::vector<gate::StandstillStop>& stops);
 
  private:
   void ConsumeSamples() noexcept;
+  void DropStopsBeforeWindow();
 
   const config::Config& config_;
   sync::TimeBase time_base_;  // after config_: its new-base gap comes from the configuration
