@@ -48,6 +48,10 @@ const std::vector<EffectInfo>& EffectTable() {
        &SimEffects::gyro_offset_degps},
       {"gyro_scale_pct", "%", "yaw-rate sensor scale error: r_meas = (1 + k_r) r", "+-3", &SimEffects::gyro_scale_pct},
       {"accel_scale_pct", "%", "accelerometer scale error: a_y,meas = (1 + k_a) a_y", "+-3", &SimEffects::accel_scale_pct},
+      {"gyro_delay_ms", "ms", "yaw-rate sensor latency (exact delay): r_meas(t) = r(t - tau)", "10..100",
+       &SimEffects::gyro_delay_ms},
+      {"accel_delay_ms", "ms", "accelerometer latency (exact delay of everything it senses)", "10..100",
+       &SimEffects::accel_delay_ms},
       {"mass_change_kg", "kg", "per-drive mass m_i = m + U(-dm, dm), Jz scaled by m_i/m", "0..300",
        &SimEffects::mass_change_kg},
   };
@@ -319,6 +323,8 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   require(std::fabs(e.gyro_offset_degps) <= 10.0, "effects.gyro_offset_degps in [-10, 10] deg/s");
   require(std::fabs(e.gyro_scale_pct) < 50.0, "effects.gyro_scale_pct in (-50, 50) %");
   require(std::fabs(e.accel_scale_pct) < 50.0, "effects.accel_scale_pct in (-50, 50) %");
+  require(e.gyro_delay_ms >= 0.0 && e.gyro_delay_ms <= 1000.0, "effects.gyro_delay_ms in [0, 1000] ms");
+  require(e.accel_delay_ms >= 0.0 && e.accel_delay_ms <= 1000.0, "effects.accel_delay_ms in [0, 1000] ms");
   require(e.mass_change_kg >= 0.0 && e.mass_change_kg < 0.5 * v.mass_kg,
           "effects.mass_change_kg in [0, mass_kg/2) (a +- range)");
   for (double dm : e.mass_schedule_kg)

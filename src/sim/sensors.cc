@@ -31,6 +31,18 @@ double SensorModel::SteerAt(double t_s) const {
   return steer_history_[i] + f * (steer_history_[i + 1] - steer_history_[i]);
 }
 
+double SensorModel::Delayed(std::deque<double>& history, double now, double delay_s) {
+  constexpr size_t kMaxDelaySamples = static_cast<size_t>(1.0 * kOutputRate_hz) + 2;  // 1 s, the configuration's limit
+  history.push_back(now);
+  if (history.size() > kMaxDelaySamples) history.pop_front();
+  if (delay_s <= 0.0) return now;
+  const double x = std::max(0.0, static_cast<double>(history.size() - 1) - delay_s * kOutputRate_hz);
+  const size_t i = static_cast<size_t>(x);
+  if (i + 1 >= history.size()) return history.back();
+  const double f = x - static_cast<double>(i);
+  return history[i] + f * (history[i + 1] - history[i]);
+}
+
 void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) {
   const auto& fx = cfg_.effects;
   const auto& nz = cfg_.noise;
@@ -80,11 +92,15 @@ void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) 
 
   // Accelerometer: a_y,meas = a_y + g*phi + x_s*r' + b + disturbance + noise.
   // Accelerometer scale (1 + k_a) on the CG acceleration (as the model's accel_scale).
-  out.a_y_meas_mps2.push_back((1.0 + fx.accel_scale_pct / 100.0) * st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot +
-                              fx.accel_bias_mps2 + disturbance + nz.lat_accel_mps2 * n_ay);
+  // Latency: the sensed acceleration reaches the bus accel_delay_ms later (an exact delay).
+  const double sensed_a_y = Delayed(sensed_a_y_, (1.0 + fx.accel_scale_pct / 100.0) * st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot,
+                                    fx.accel_delay_ms / 1000.0);
+  out.a_y_meas_mps2.push_back(sensed_a_y + fx.accel_bias_mps2 + disturbance + nz.lat_accel_mps2 * n_ay);
   out.a_x_meas_mps2.push_back(st.a_x + nz.long_accel_mps2 * n_ax);
   // Gyro: r_meas = (1 + k_r) r + r0 + noise.
-  out.yaw_rate_meas_radps.push_back((1.0 + fx.gyro_scale_pct / 100.0) * st.r + fx.gyro_offset_degps * kDeg +
+  // Latency: the yaw rate reaches the bus gyro_delay_ms later (an exact delay).
+  const double sensed_r = Delayed(sensed_r_, st.r, fx.gyro_delay_ms / 1000.0);
+  out.yaw_rate_meas_radps.push_back((1.0 + fx.gyro_scale_pct / 100.0) * sensed_r + fx.gyro_offset_degps * kDeg +
                                     nz.yaw_rate_degps * kDeg * n_r);
 
   out.valid.push_back(st.t >= kValidAfter_s ? 1 : 0);

@@ -1,9 +1,10 @@
 // The car's sensors as the bus reports them (before DBC quantisation): the hidden sensor-side
 // effects (bias, steering offset, roll and lever arm on the accelerometer, steering delay, speed
-// scale, gyro offset and scale) plus white noise and a slow zero-mean accelerometer disturbance. Private to src/sim.
+// scale, gyro offset and scale, the accelerometer's and the gyro's latency) plus white noise and a slow zero-mean accelerometer disturbance. Private to src/sim.
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <vector>
 
 #include "ndsid/config/simulation_config.h"
@@ -26,11 +27,15 @@ class SensorModel {
 
  private:
   double SteerAt(double t_s) const;  // true steering at t (linear interpolation, clamped)
+  // The value recorded delay_s ago in a 100 Hz history (linear interpolation; the oldest kept
+  // value before the history starts). Pushes `now` first; keeps the last kMaxDelaySamples.
+  static double Delayed(std::deque<double>& history, double now, double delay_s);
 
   const config::SimulationConfig& cfg_;
   double dt_step_s_;
   Rng& rng_;
   std::vector<double> steer_history_;
+  std::deque<double> sensed_a_y_, sensed_r_;  // what the accelerometer and the gyro sense (latencies)
   OrnsteinUhlenbeck disturbance_;
   double mu_esp_;
 };

@@ -235,20 +235,21 @@ TEST(TwoOutputs, WithoutAYawRateFallsBackToAyAloneWithTheSameResult) {
 }
 
 // Catches: a gyro effect whose autodiff derivative differs from the model it simulates (a term
-// written for double but not for the Jet, a missing chain through the observer's input). The
+// written for double but not for the Jet, a missing chain through the observer's input or
+// gyro_delay's shifted read of it). The
 // stacked (a_y, yaw-rate) Jacobian of every parameter against central differences, with
 // road_bank in the model so the observer's corrected yaw-rate input is exercised too.
 TEST(GyroEffects, AutodiffJacobianMatchesNumericDifferences) {
-  const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset", "gyro_scale"});
-  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset", "gyro_scale"});
+  const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset", "gyro_scale", "gyro_delay"});
+  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset", "gyro_scale", "gyro_delay"});
   std::vector<double> truth = BaseTruth();
-  truth.insert(truth.end(), {0.0, 0.4 * kDeg, 0.02});
+  truth.insert(truth.end(), {0.0, 0.4 * kDeg, 0.02, 0.05});
   const auto segs = SyntheticTwoOutputSegments(truth_spec, truth, 1, 20, kNoiseA, kNoiseR, 61, 0.2);
   const auto chunks = MakeChunks(Pointers(segs), 60, 1.5);
   ASSERT_EQ(chunks.size(), 1u);
   ASSERT_TRUE(chunks[0].has_yaw_rate());
   std::vector<double> p = BaseTruth();
-  p.insert(p.end(), {1.3, 0.3 * kDeg, 0.01});
+  p.insert(p.end(), {1.3, 0.3 * kDeg, 0.01, 0.0337});  // the delay off the sample grid (the shift interpolates)
   const size_t burn = BurnInSamples(chunks[0], 1.5);
   std::vector<double> e, jac;
   EvaluateChunk(chunks[0], burn, kWheelbase, spec, p, e, jac, true);

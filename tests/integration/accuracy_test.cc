@@ -32,6 +32,37 @@ TEST(Accuracy, CleanTwoHoursEgWithinOnePercentAndRmseAtNoiseFloor) {
   EXPECT_GT(r.rmse_validation_mps2, 0.9 * floor);
 }
 
+// Catches: a yaw-rate latency effect with the wrong sign or time base, or one that misreads the
+// measured yaw rate the road_bank observer uses. The simulator delays the gyro exactly
+// (r_meas(t) = r(t - tau), interpolated on its 100 Hz history); the model's gyro_delay delays the
+// modelled yaw rate on the fit's 50 Hz grid. Two outputs, 1 h each, no latency and two
+// magnitudes, three seeds: tau within 10 ms (measured +5.9, -6.2, +3.6 ms: the fit grid and the
+// decimation), EG within 1 %, the yaw-rate residual at most 1.1x the true model's.
+TEST(Accuracy, GyroLatencyRecoveredWithTwoOutputs) {
+  for (const auto& [tau_ms, seed] : {std::pair{0.0, 113u}, std::pair{40.0, 111u}, std::pair{90.0, 112u}}) {
+    const SimulatedRun run = SimulateAndReplay("acc_gyro_delay", seed, 1.0, {"gyro_delay_ms=" + std::to_string(tau_ms)},
+                                               {"road_bank", "gyro_delay"});
+    config::IdentificationConfig cfg = run.config->identification;
+    cfg.yaw_rate_output = true;
+    const identify::Identifier id(cfg, run.config->vehicle.wheelbase_m, run.pipeline->identifier().spec());
+    const identify::IdentificationResult r = id.Identify(run.window.training, run.window.validation,
+                                                         std::optional<std::vector<double>>{});
+    ASSERT_TRUE(r.valid) << r.reason;
+    ASSERT_TRUE(r.yaw_rate_output);
+    ASSERT_EQ(r.effect_params.size(), 2u);  // road_bank's gain, gyro_delay_s
+    const auto& tau = r.effect_params[1];
+    ASSERT_EQ(tau.name, "gyro_delay_s");
+    const std::vector<double> truth = TruthVector(run, id.spec());
+    const double floor_r = id.RmseYawRate(truth, run.window.validation);
+    std::printf("gyro latency %.0f ms: fitted %.1f ± %.1f ms; EG %+.2f %%; yaw-rate RMSE %.4f deg/s (floor %.4f)\n", tau_ms,
+                1e3 * tau.value, 1e3 * tau.se, 100 * (r.eg_rad_per_mps2 / run.eg_truth - 1),
+                r.rmse_validation_yaw_radps * 180 / M_PI, floor_r * 180 / M_PI);
+    EXPECT_NEAR(tau.value, tau_ms / 1000, 0.010) << seed;
+    EXPECT_LT(std::abs(r.eg_rad_per_mps2 / run.eg_truth - 1), 0.01) << seed;
+    EXPECT_LT(r.rmse_validation_yaw_radps, 1.10 * floor_r) << seed;
+  }
+}
+
 // Catches: EG accuracy that does not improve with data: 10 h, within 1 % (measured: see
 // docs/accuracy.md) and at the noise floor.
 TEST(AccuracyLong, TenHoursCleanEgWithinOnePercent) {

@@ -101,6 +101,7 @@ inline std::vector<double> TruthVector(const SimulatedRun& run, const model::Mod
     if (n == "accel_scale") v = e.accel_scale_pct / 100;
     if (n == "gyro_offset_radps") v = e.gyro_offset_degps * M_PI / 180;
     if (n == "gyro_scale") v = e.gyro_scale_pct / 100;
+    if (n == "gyro_delay_s") v = e.gyro_delay_ms / 1000;
     if (n == "road_bank_gain") v = 1.0;  // the simulated road is banked: the bank as measured
     p.push_back(v);
   }

@@ -75,6 +75,31 @@ TEST(Effects, GyroOffsetAndScaleFollowTheirEquationEverywhere) {
   }
 }
 
+TEST(Effects, GyroAndAccelerometerLatenciesDelayWhatTheySense) {
+  // Catches a latency applied to the truth, in the wrong direction (an advance), in the wrong unit,
+  // or to the bias and noise: with the same noise draws r_meas,on - r_meas,off = r(t - tau) - r(t),
+  // and the accelerometer's likewise (35 ms: between samples, linear interpolation; 60 ms: 6).
+  const auto p = RunPair([](config::SimEffects& e) {
+    e.gyro_delay_ms = 35.0;
+    e.accel_delay_ms = 60.0;
+  });
+  ExpectSameTruth(p);
+  double max_r = 0.0, max_a = 0.0;
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    ASSERT_EQ(a.yaw_rate_radps, b.yaw_rate_radps);
+    for (size_t i = 10; i < a.size(); ++i) {
+      const double r_35 = 0.5 * (a.yaw_rate_radps[i - 3] + a.yaw_rate_radps[i - 4]);
+      ASSERT_NEAR(b.yaw_rate_meas_radps[i] - a.yaw_rate_meas_radps[i], r_35 - a.yaw_rate_radps[i], 1e-12) << i;
+      ASSERT_NEAR(b.a_y_meas_mps2[i] - a.a_y_meas_mps2[i], a.a_y_mps2[i - 6] - a.a_y_mps2[i], 1e-12) << i;
+      max_r = std::max(max_r, std::fabs(r_35 - a.yaw_rate_radps[i]));
+      max_a = std::max(max_a, std::fabs(a.a_y_mps2[i - 6] - a.a_y_mps2[i]));
+    }
+  }
+  EXPECT_GT(max_r, 0.005);  // the comparison is not between two constants
+  EXPECT_GT(max_a, 0.1);
+}
+
 TEST(Effects, SteerOffsetShiftsMeasuredSteeringByD0) {
   // Catches an offset applied at the road wheel (/is) or in the wrong unit.
   const auto p = RunPair([](config::SimEffects& e) { e.steer_offset_deg = 1.5; });

@@ -28,6 +28,8 @@ struct SimEffects {
   double gyro_offset_degps = 0.0;        // yaw-rate sensor: r_meas = (1 + k_r) r + r0, r0 here
   double gyro_scale_pct = 0.0;           // k_r * 100
   double accel_scale_pct = 0.0;          // accelerometer: a_y,meas = (1 + k_a) a_y + ..., k_a * 100
+  double gyro_delay_ms = 0.0;            // yaw-rate sensor latency: r_meas(t) = r(t - tau)
+  double accel_delay_ms = 0.0;           // accelerometer latency: a_y,meas(t) = a_y,sensed(t - tau)
   double mass_change_kg = 0.0;           // per drive: m_i = m + U(-dm, +dm) (Jz scaled with m_i/m)
   std::vector<double> mass_schedule_kg;  // if non-empty: m_i = m + schedule[i % size] (overrides)
 

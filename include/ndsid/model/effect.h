@@ -77,6 +77,8 @@ struct InputSeries {
   T Steer(const T& index) const { return Lerp(steer_rad, index); }
   template <typename T>
   T Speed(const T& index) const { return Lerp(speed_mps, index); }
+  template <typename T>
+  T YawRate(const T& index) const { return yaw_rate_radps ? Lerp(yaw_rate_radps, index) : T(0.0); }
 
  private:
   template <typename T>

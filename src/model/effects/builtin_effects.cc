@@ -27,6 +27,7 @@ const std::vector<std::pair<std::string, Factory>>& Table() {
       {"roll", MakeRoll},
       {"gyro_offset", MakeGyroOffset},         // yaw-rate measurement (offset before scale)
       {"gyro_scale", MakeGyroScale},
+      {"gyro_delay", MakeGyroDelay},
   };
   return table;
 }

@@ -23,6 +23,7 @@ std::shared_ptr<const Effect> MakeRoll();
 std::shared_ptr<const Effect> MakeGyroOffset();
 std::shared_ptr<const Effect> MakeGyroScale();
 std::shared_ptr<const Effect> MakeAccelScale();
+std::shared_ptr<const Effect> MakeGyroDelay();
 // The built-in effect of that name, nullptr if none.
 std::shared_ptr<const Effect> MakeBuiltinEffect(const std::string& name);
 // An effect stated as a formula (model.formulas); throws ConfigError (see EffectLibrary).
