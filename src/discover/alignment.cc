@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "ndsid/identify/chunks.h"
 #include "ndsid/identify/model_output.h"
@@ -105,6 +106,40 @@ RoleLatency InputProfile(const Identifier& id, const std::vector<double>& params
   return out;
 }
 
+std::vector<std::vector<double>> ChunkYawResiduals(const Identifier& id, const std::vector<double>& params,
+                                                   const SegmentList& segments) {
+  std::vector<std::vector<double>> res;
+  for (const ChunkOutput& c : SimulateChunks(id, params, segments)) {
+    if (c.yaw_rate_model_radps.size() != c.n) continue;
+    std::vector<double> e;
+    for (size_t k = c.burn_in; k < c.n; ++k) {
+      const float r = c.segment->samples[c.first + k].yaw_rate_radps;
+      if (std::isfinite(r)) e.push_back(r - c.yaw_rate_model_radps[k]);
+    }
+    res.push_back(std::move(e));
+  }
+  return res;
+}
+
+// Yaw rate (two outputs): the profile of the yaw-rate RSS over shifts of the measured yaw rate
+// (the output and what the bank observer reads), parameters held.
+RoleLatency YawRateProfile(const Identifier& two, const std::vector<double>& params, const SegmentList& training,
+                           const AlignmentOptions& o) {
+  RoleLatency out;
+  out.role = Role::kYawRate;
+  out.method = "yaw-rate RSS profile over shifts, parameters held";
+  Profile p;
+  for (double s : Grid(o)) {
+    const std::vector<stats::Segment> shifted = ShiftOne(training, Role::kYawRate, s);
+    size_t n = 0;
+    const double rmse = two.RmseYawRate(params, Pointers(shifted), &n);
+    p.shift.push_back(s);
+    p.rss.push_back(rmse * rmse * static_cast<double>(n));
+  }
+  Refine(p, ResidualNoiseLevel(ChunkYawResiduals(two, params, training)), out);
+  return out;
+}
+
 // Steering: the profile finds the basin, a joint refit of model and shift (steer_delay) the
 // estimate and its standard error with every parameter free.
 // `refitted`: the model's parameters from the joint refit (for data aligned by the result).
@@ -170,31 +205,75 @@ std::vector<stats::Segment> AlignSegments(const SegmentList& segments, const std
   return out;
 }
 
-std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& identifier, const std::vector<double>& params,
+std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& two_or_one, const std::vector<double>& params,
                                                const SegmentList& training, const AlignmentOptions& options) {
+  // The steering's and the speed's profiles score a_y (Identifier::Rmse); the steering's joint
+  // refit uses the configured outputs. With two outputs the yaw rate is profiled too (below).
+  const Identifier& identifier = two_or_one;
+  const bool two = two_or_one.config().yaw_rate_output;
   std::vector<RoleLatency> out;
+  const double dt = training.empty() ? 0.0 : training.front()->dt_s;
+  const double floor_s = options.min_apply_s >= 0 ? options.min_apply_s : 0.5 * dt;
+  auto decide = [&](RoleLatency& l) {
+    const bool significant = std::abs(l.latency_s) > options.z_apply * l.se_s;
+    l.apply = l.determined && significant && std::abs(l.latency_s) >= floor_s;
+    if (l.determined && !significant) {
+      l.note = "not significant";
+    } else if (l.determined && !l.apply) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "below the model's timing resolution (%.1f ms, half a sample of the fit)", 1e3 * floor_s);
+      l.note = buf;
+    }
+  };
+  // Two outputs: the yaw rate first (a gyro latency reaches a_y through the bank observer and
+  // would pull the steering's shift), then steering and speed on a_y, then the yaw rate again
+  // on the data so aligned (a steering skew shifts the modelled yaw rate too: the first pass
+  // finds the latency relative to the skewed model, the second the rest). The two add up.
+  SegmentList data = training;
+  std::vector<stats::Segment> yaw_aligned;
+  RoleLatency yaw1;
+  if (two) {
+    yaw1 = YawRateProfile(two_or_one, params, training, options);
+    decide(yaw1);
+    if (yaw1.apply) {
+      yaw_aligned = AlignSegments(training, {yaw1});
+      data = Pointers(yaw_aligned);
+    }
+  }
   // The speed is searched on data aligned for the steering (with the joint fit's parameters):
   // a steering skew left in would pull the speed's shift.
-  auto decide = [&](RoleLatency& l) {
-    l.apply = l.determined && std::abs(l.latency_s) > options.z_apply * l.se_s;
-    if (l.determined && !l.apply) l.note = "not significant";
-  };
   std::vector<double> refitted;
-  out.push_back(SteeringLatency(identifier, params, training, options, refitted));
+  out.push_back(SteeringLatency(identifier, params, data, options, refitted));
   RoleLatency& steer = out.back();
   decide(steer);
+  std::vector<stats::Segment> steer_aligned;
+  const std::vector<double>* now = &params;
   if (steer.apply && refitted.size() == params.size()) {
-    const std::vector<stats::Segment> aligned = AlignSegments(training, {steer});
-    out.push_back(InputProfile(identifier, refitted, Pointers(aligned), Role::kSpeed, options));
-  } else {
-    out.push_back(InputProfile(identifier, params, training, Role::kSpeed, options));
+    steer_aligned = AlignSegments(data, {steer});
+    data = Pointers(steer_aligned);
+    now = &refitted;
   }
+  out.push_back(InputProfile(identifier, *now, data, Role::kSpeed, options));
+  decide(out[1]);
   RoleLatency yaw;
   yaw.role = Role::kYawRate;
-  yaw.method = "not estimated";
-  yaw.note = "the yaw rate drives only the 1 s bank observer; its kinematic shift (a_y = v (r + beta')) is confounded with the side-slip rate";
+  if (two) {
+    std::vector<stats::Segment> speed_aligned;
+    if (out[1].apply) {
+      speed_aligned = AlignSegments(data, {out[1]});
+      data = Pointers(speed_aligned);
+    }
+    yaw = YawRateProfile(two_or_one, *now, data, options);
+    if (yaw1.apply) {
+      yaw.latency_s += yaw1.latency_s;
+      yaw.method = "yaw-rate RSS profiles over shifts (before and after the steering's), parameters held";
+    }
+    decide(yaw);
+  } else {
+    yaw.method = "not estimated";
+    yaw.note = "the yaw rate drives only the 1 s bank observer; its kinematic shift (a_y = v (r + beta')) is confounded with the side-slip rate";
+  }
   out.push_back(yaw);
-  decide(out[1]);
   for (const RoleLatency& l : out) {
     spdlog::info("alignment: {} latency {:.1f} ± {:.1f} ms ({}){}", config::RoleKey(l.role), 1e3 * l.latency_s,
                  1e3 * l.se_s, l.method, l.note.empty() ? "" : ": " + l.note);

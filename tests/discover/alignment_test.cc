@@ -102,5 +102,35 @@ TEST(Alignment, NoSkewNothingApplied) {
   }
 }
 
+// Catches: a skew finer than the fit's grid applied because its standard error (noise only) is
+// small, or the floor swallowing a skew the grid resolves. Steering stamped 6 ms and 30 ms late
+// (read between samples of the truth); the floor is half a 20 ms sample.
+TEST(Alignment, SkewBelowHalfASampleEstimatedButNotApplied) {
+  const auto truth = SyntheticSegments(16, 60.0, 0.05, 13);
+  const identify::Identifier id(DefaultIdentificationConfig(), kWheelbase);
+  for (const double late_s : {0.006, 0.030}) {
+    discover::RoleLatency l;
+    l.role = Role::kSteeringWheelAngle;
+    l.latency_s = -late_s;  // read at t - late: the value seen now is the truth of late_s ago
+    l.apply = true;
+    const auto skewed = discover::AlignSegments(Pointers(truth), {l});
+    const auto fit = id.Identify(Pointers(skewed), {}, std::optional<std::vector<double>>{});
+    ASSERT_TRUE(fit.valid) << fit.reason;
+    const auto latencies = discover::EstimateRoleLatencies(id, fit.AllValues(), Pointers(skewed));
+    const auto& steer = Find(latencies, Role::kSteeringWheelAngle);
+    std::printf("late %.0f ms: steering %.2f ± %.2f ms, apply %d (%s)\n", 1e3 * late_s, 1e3 * steer.latency_s,
+                1e3 * steer.se_s, steer.apply, steer.note.c_str());
+    ASSERT_TRUE(steer.determined);
+    EXPECT_NEAR(steer.latency_s, late_s, 0.003);
+    if (late_s < 0.010) {
+      EXPECT_GT(std::abs(steer.latency_s), 3 * steer.se_s);  // significant: only the floor holds it back
+      EXPECT_FALSE(steer.apply);
+      EXPECT_NE(steer.note.find("resolution"), std::string::npos) << steer.note;
+    } else {
+      EXPECT_TRUE(steer.apply);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ndsid::testing

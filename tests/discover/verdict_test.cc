@@ -104,5 +104,37 @@ TEST(OutputVerdict, TwoOutputsEachOutputJudgedOnItsOwnResidual) {
   EXPECT_FALSE(Verdict(with, "a_y").unexplained) << Verdict(with, "a_y").text;
 }
 
+// Catches: a yaw-rate floor that step 0's shift fools. Reading the measured yaw rate between
+// samples (a fractional shift, linear interpolation) averages neighbouring noise and lowers the
+// first-difference floor: a gyro latency the alignment removed would be called "unexplained".
+// White noise on the true model's yaw rate, shifted by w samples: the corrected floor is the noise
+// (10 %) at every w, the uncorrected one is lower where w is not whole.
+TEST(OutputVerdict, YawRateFloorCorrectedForTheAlignmentShift) {
+  const auto valid = SyntheticTwoOutputSegments(model::ModelSpec{}, BaseTruth(), 6, 60, kNoiseA, kNoiseR, 331);
+  const identify::Identifier id(Cfg(true), kWheelbase, model::ModelSpec{});
+  for (double shift : {0.0, 0.27, 0.5, 2.7}) {
+    discover::RoleLatency l;
+    l.role = config::Role::kYawRate;
+    l.latency_s = -shift * valid.front().dt_s;  // read earlier: the noise shifts, the signal nearly not
+    l.apply = true;
+    const auto shifted = discover::AlignSegments(Pointers(valid), {l});
+    const auto raw = discover::JudgeOutputs(id, BaseTruth(), Pointers(shifted), true, 1.5, 0.0);
+    const auto fixed = discover::JudgeOutputs(id, BaseTruth(), Pointers(shifted), true, 1.5, -shift);
+    ASSERT_EQ(fixed.size(), 2u);
+    const auto& r = fixed[1];
+    std::printf("shift %.2f samples: yaw-rate floor %.4f deg/s uncorrected, %.4f corrected (noise 0.1), ratio %.2f\n", shift,
+                raw[1].floor, r.floor, r.ratio);
+    EXPECT_NEAR(r.floor, 0.1, 0.01) << shift;
+    // (the 2.7-sample shift misaligns the signal itself by 54 ms: its residual is structure)
+    if (shift < 1) {
+      EXPECT_FALSE(r.unexplained) << r.text;
+    }
+    const double w = shift - std::floor(shift);
+    if (w > 0.1) {
+      EXPECT_LT(raw[1].floor, 0.9 * r.floor) << "the uncorrected floor should be biased low at w " << w;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ndsid::testing

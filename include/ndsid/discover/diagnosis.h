@@ -104,9 +104,12 @@ struct OutputVerdict {
 };
 
 // The verdict for each output the fit scores (the yaw rate only when it is an output) of the
-// model `identifier.spec()` at `params` over `segments`.
+// model `identifier.spec()` at `params` over `segments`. yaw_shift_samples: the shift step 0
+// applied to the measured yaw rate, in samples (0: none): reading it between samples averages
+// neighbouring noise, which lowers the first-difference floor; the floor is corrected for it.
 std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, const std::vector<double>& params,
-                                        const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit);
+                                        const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit,
+                                        double yaw_shift_samples = 0);
 
 // One candidate refitted by the ladder: what it did to the held-out error, and why it was kept
 // or rejected (the stop message's "no candidate improved" lists these).
