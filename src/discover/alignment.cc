@@ -88,20 +88,27 @@ std::vector<double> Grid(const AlignmentOptions& o) {
   return g;
 }
 
+// RSS over the grid of shifts of `role`; rmse_of(shifted, &n) scores the shifted copies.
+template <class Score>
+Profile ShiftProfile(const SegmentList& training, Role role, const AlignmentOptions& o, Score rmse_of) {
+  Profile p;
+  for (double s : Grid(o)) {
+    const std::vector<stats::Segment> shifted = ShiftOne(training, role, s);
+    size_t n = 0;
+    const double rmse = rmse_of(Pointers(shifted), &n);
+    p.shift.push_back(s);
+    p.rss.push_back(rmse * rmse * static_cast<double>(n));
+  }
+  return p;
+}
+
 // Profile of the model's RSS over shifts of one input role, parameters held.
 RoleLatency InputProfile(const Identifier& id, const std::vector<double>& params, const SegmentList& training, Role role,
                          const AlignmentOptions& o) {
   RoleLatency out;
   out.role = role;
   out.method = "RSS profile over shifts, parameters held";
-  Profile p;
-  for (double s : Grid(o)) {
-    const std::vector<stats::Segment> shifted = ShiftOne(training, role, s);
-    size_t n = 0;
-    const double rmse = id.Rmse(params, Pointers(shifted), &n);
-    p.shift.push_back(s);
-    p.rss.push_back(rmse * rmse * static_cast<double>(n));
-  }
+  const Profile p = ShiftProfile(training, role, o, [&](const SegmentList& shifted, size_t* n) { return id.Rmse(params, shifted, n); });
   Refine(p, ResidualNoiseLevel(ChunkResiduals(id, params, training)), out);
   return out;
 }
@@ -128,14 +135,8 @@ RoleLatency YawRateProfile(const Identifier& two, const std::vector<double>& par
   RoleLatency out;
   out.role = Role::kYawRate;
   out.method = "yaw-rate RSS profile over shifts, parameters held";
-  Profile p;
-  for (double s : Grid(o)) {
-    const std::vector<stats::Segment> shifted = ShiftOne(training, Role::kYawRate, s);
-    size_t n = 0;
-    const double rmse = two.RmseYawRate(params, Pointers(shifted), &n);
-    p.shift.push_back(s);
-    p.rss.push_back(rmse * rmse * static_cast<double>(n));
-  }
+  const Profile p = ShiftProfile(training, Role::kYawRate, o,
+                                 [&](const SegmentList& shifted, size_t* n) { return two.RmseYawRate(params, shifted, n); });
   Refine(p, ResidualNoiseLevel(ChunkYawResiduals(two, params, training)), out);
   return out;
 }
