@@ -144,8 +144,12 @@ systemctl kill -s KILL ndsidd
 wait_for 30 sh -c "[ \"\$(systemctl show -p NRestarts --value ndsidd)\" -gt $before ] && [ \"\$(systemctl show -p ActiveState --value ndsidd)\" = active ]" ||
   fail "no restart after SIGKILL"
 loaded=$(journalctl -u ndsidd --no-pager -o cat _PID="$(prop ndsidd MainPID)" | grep -m1 "gated h," || true)
-result "sigkill: restarted (NRestarts $before -> $(prop ndsidd NRestarts), PID $pid -> $(prop ndsidd MainPID)); loaded: $loaded; the second half played after the last persist (interval 300 s) is lost"
-[[ "$loaded" == *"$(printf '%.4f' "$persisted") gated h"* ]] || fail "restart did not load the persisted state ($persisted h): $loaded"
+# What the file held at the kill: the SIGTERM's state plus whatever a persist wrote while the
+# second half played (ndsidd persists after every identification and every 300 s).
+on_disk=$(ndsidd --config "$cfg_dir/vehicle.yaml" --show-state 2>/dev/null | sed -n 's/^gated_hours: //p')
+result "sigkill: restarted (NRestarts $before -> $(prop ndsidd NRestarts), PID $pid -> $(prop ndsidd MainPID)); loaded: $loaded; on disk $on_disk h (after SIGTERM $persisted h); what was played after the last persist is lost"
+[[ "$loaded" == *"$(printf '%.4f' "$on_disk") gated h"* ]] || fail "restart did not load the state on disk ($on_disk h): $loaded"
+awk -v a="$on_disk" -v b="$persisted" 'BEGIN { exit !(a + 0 >= b + 0) }' || fail "the state on disk ($on_disk h) lost what the SIGTERM persisted ($persisted h)"
 
 # --- watchdog: a stopped process is restarted ---------------------------------------------------
 before=$(prop ndsidd NRestarts); pid=$(prop ndsidd MainPID)
