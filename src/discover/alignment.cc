@@ -70,12 +70,22 @@ void Refine(const Profile& p, double sigma2_tau, RoleLatency& out) {
   out.determined = std::isfinite(out.se_s);
 }
 
+// Residuals of one output per chunk after its burn-in: a_y, or the yaw rate where it is
+// measured (chunks without a modelled yaw rate are left out).
 std::vector<std::vector<double>> ChunkResiduals(const Identifier& id, const std::vector<double>& params,
-                                                const SegmentList& segments) {
+                                                const SegmentList& segments, bool yaw_rate) {
   std::vector<std::vector<double>> res;
   for (const ChunkOutput& c : SimulateChunks(id, params, segments)) {
+    if (yaw_rate && c.yaw_rate_model_radps.size() != c.n) continue;
     std::vector<double> e;
-    for (size_t k = c.burn_in; k < c.n; ++k) e.push_back(c.segment->samples[c.first + k].lat_accel_mps2 - c.a_y_model_mps2[k]);
+    for (size_t k = c.burn_in; k < c.n; ++k) {
+      const stats::SegmentSample& s = c.segment->samples[c.first + k];
+      if (!yaw_rate) {
+        e.push_back(s.lat_accel_mps2 - c.a_y_model_mps2[k]);
+      } else if (std::isfinite(s.yaw_rate_radps)) {
+        e.push_back(s.yaw_rate_radps - c.yaw_rate_model_radps[k]);
+      }
+    }
     res.push_back(std::move(e));
   }
   return res;
@@ -109,23 +119,8 @@ RoleLatency InputProfile(const Identifier& id, const std::vector<double>& params
   out.role = role;
   out.method = "RSS profile over shifts, parameters held";
   const Profile p = ShiftProfile(training, role, o, [&](const SegmentList& shifted, size_t* n) { return id.Rmse(params, shifted, n); });
-  Refine(p, ResidualNoiseLevel(ChunkResiduals(id, params, training)), out);
+  Refine(p, ResidualNoiseLevel(ChunkResiduals(id, params, training, false)), out);
   return out;
-}
-
-std::vector<std::vector<double>> ChunkYawResiduals(const Identifier& id, const std::vector<double>& params,
-                                                   const SegmentList& segments) {
-  std::vector<std::vector<double>> res;
-  for (const ChunkOutput& c : SimulateChunks(id, params, segments)) {
-    if (c.yaw_rate_model_radps.size() != c.n) continue;
-    std::vector<double> e;
-    for (size_t k = c.burn_in; k < c.n; ++k) {
-      const float r = c.segment->samples[c.first + k].yaw_rate_radps;
-      if (std::isfinite(r)) e.push_back(r - c.yaw_rate_model_radps[k]);
-    }
-    res.push_back(std::move(e));
-  }
-  return res;
 }
 
 // Yaw rate (two outputs): the profile of the yaw-rate RSS over shifts of the measured yaw rate
@@ -137,7 +132,7 @@ RoleLatency YawRateProfile(const Identifier& two, const std::vector<double>& par
   out.method = "yaw-rate RSS profile over shifts, parameters held";
   const Profile p = ShiftProfile(training, Role::kYawRate, o,
                                  [&](const SegmentList& shifted, size_t* n) { return two.RmseYawRate(params, shifted, n); });
-  Refine(p, ResidualNoiseLevel(ChunkYawResiduals(two, params, training)), out);
+  Refine(p, ResidualNoiseLevel(ChunkResiduals(two, params, training, true)), out);
   return out;
 }
 

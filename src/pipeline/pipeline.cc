@@ -13,8 +13,6 @@ namespace ndsid::pipeline {
 namespace {
 // Below this the wheel speeds' quantisation and the speed signal's dead band dominate.
 constexpr double kWheelCheckMinSpeed_mps = 2.0;
-// The window's standstill stops kept as evidence (and persisted): the newest this many.
-constexpr size_t kMaxStops = 100000;
 }  // namespace
 
 Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)

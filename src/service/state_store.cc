@@ -516,8 +516,7 @@ LearnedState CaptureState(const pipeline::Pipeline& pipeline, const config::Conf
   st.accumulator = pipeline.accumulator().Serialize();
   st.adequacy = pipeline.adequacy().Serialize();
   st.last_estimate = pipeline.last_estimate();
-  const auto& stops = pipeline.stops();  // the newest kMaxPersistedStops (a loader's limit)
-  st.stops.assign(stops.end() - static_cast<std::ptrdiff_t>(std::min(stops.size(), kMaxPersistedStops)), stops.end());
+  st.stops.assign(pipeline.stops().begin(), pipeline.stops().end());  // at most kMaxPersistedStops
   return st;
 }
 

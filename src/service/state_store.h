@@ -42,8 +42,8 @@ struct LearnedState {
   std::vector<gate::StandstillStop> stops;  // the window's standstill stops (evidence)
 };
 
-// At most this many stops in a state file (the gate keeps at most 100 000 while running).
-inline constexpr size_t kMaxPersistedStops = 100000;
+// At most this many stops in a state file: as many as the pipeline keeps.
+inline constexpr size_t kMaxPersistedStops = pipeline::Pipeline::kMaxStops;
 
 // Why a file could not be used.
 class StateFileError : public Error {

@@ -115,7 +115,9 @@ class Pipeline {
     last_fit_gated_hours_ = last_fit_gated_hours;
   }
   // The standstill stops of the window's drives (evidence on the gyro offset and the
-  // accelerometer bias), persisted with the learned state so a restart keeps them.
+  // accelerometer bias), persisted with the learned state so a restart keeps them; the newest
+  // kMaxStops at most.
+  static constexpr size_t kMaxStops = 100000;
   const std::deque<gate::StandstillStop>& stops() const { return stops_; }
   // Replaces the stops (after the accumulator is restored: stops of drives older than its
   // window are dropped, as while running).
