@@ -44,6 +44,10 @@ const std::vector<EffectInfo>& EffectTable() {
       {"steer_delay_ms", "ms", "steering message carries d_sw from dt earlier than the accelerometer", "20..150",
        &SimEffects::steer_delay_ms},
       {"speed_scale_pct", "%", "speed scale error v_meas = (1 + eps) v", "+-3", &SimEffects::speed_scale_pct},
+      {"speed_offset_kph", "km/h", "speed signal offset v_meas = (1 + eps) v + c while moving (the vehicle speed only)", "+-2",
+       &SimEffects::speed_offset_kph},
+      {"speed_delay_ms", "ms", "speed signal latency (exact delay): v_meas(t) from v(t - tau)", "20..300",
+       &SimEffects::speed_delay_ms},
       {"gyro_offset_degps", "deg/s", "yaw-rate sensor offset: r_meas = r + r0", "+-0.5",
        &SimEffects::gyro_offset_degps},
       {"gyro_scale_pct", "%", "yaw-rate sensor scale error: r_meas = (1 + k_r) r", "+-3", &SimEffects::gyro_scale_pct},
@@ -320,6 +324,8 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   require(e.roll_damping_ratio > 0.05 && e.roll_damping_ratio < 3.0, "effects.roll_damping_ratio in (0.05, 3)");
   require(std::fabs(e.superelevation_pct) <= 15.0, "effects.superelevation_pct in [-15, 15] %");
   require(std::fabs(e.speed_scale_pct) < 50.0, "effects.speed_scale_pct in (-50, 50) %");
+  require(std::fabs(e.speed_offset_kph) <= 20.0, "effects.speed_offset_kph in [-20, 20] km/h");
+  require(e.speed_delay_ms >= 0.0 && e.speed_delay_ms <= 1000.0, "effects.speed_delay_ms in [0, 1000] ms");
   require(std::fabs(e.gyro_offset_degps) <= 10.0, "effects.gyro_offset_degps in [-10, 10] deg/s");
   require(std::fabs(e.gyro_scale_pct) < 50.0, "effects.gyro_scale_pct in (-50, 50) %");
   require(std::fabs(e.accel_scale_pct) < 50.0, "effects.accel_scale_pct in (-50, 50) %");

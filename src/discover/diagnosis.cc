@@ -117,7 +117,12 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   d.model = spec.Describe();
   std::vector<std::string> candidates = options.candidates;
   const auto present = spec.effect_names();
-  if (candidates.empty()) candidates = spec.library().builtin_names();
+  if (candidates.empty()) {
+    for (const std::string& c : spec.library().builtin_names()) {
+      const auto effect = spec.library().Find(c);
+      if (effect == nullptr || effect->info().default_candidate) candidates.push_back(c);
+    }
+  }
   candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                   [&](const std::string& c) { return std::find(present.begin(), present.end(), c) != present.end(); }),
                    candidates.end());

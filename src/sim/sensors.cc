@@ -77,11 +77,16 @@ void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) 
   out.steer_sw_meas_rad.push_back(steer_delayed + fx.steer_offset_deg * kDeg + nz.steer_deg * kDeg * n_steer);
   out.steer_rate_meas_radps.push_back((steer_delayed - SteerAt(st.t - delay_s - 0.01)) / 0.01);
 
-  // Speed: wheel-based, scaled by (1 + eps), never negative, exactly 0 at standstill.
+  // Speed: wheel-based, scaled by (1 + eps), never negative, exactly 0 at standstill. The
+  // vehicle speed signal (not the wheel speeds) reaches the bus speed_delay_ms late (an exact
+  // delay of what it sensed) and carries speed_offset_kph while the car moves.
   const double scale = 1.0 + fx.speed_scale_pct / 100.0;
   const double speed_abs = std::fabs(st.v);
   const bool standing = speed_abs < 0.01;
-  out.speed_meas_mps.push_back(standing ? 0.0 : std::max(0.0, scale * speed_abs + nz.speed_kph / 3.6 * n_speed));
+  const double sensed_speed = Delayed(sensed_speed_, speed_abs, fx.speed_delay_ms / 1000.0);
+  out.speed_meas_mps.push_back(sensed_speed < 0.01 ? 0.0
+                                                   : std::max(0.0, scale * sensed_speed + fx.speed_offset_kph / 3.6 +
+                                                                       nz.speed_kph / 3.6 * n_speed));
   const double half_track = 0.5 * cfg_.vehicle.track_width_m;
   const double sgn = st.v < 0 ? -1.0 : 1.0;
   for (int w = 0; w < 4; ++w) {

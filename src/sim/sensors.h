@@ -1,6 +1,6 @@
 // The car's sensors as the bus reports them (before DBC quantisation): the hidden sensor-side
 // effects (bias, steering offset, roll and lever arm on the accelerometer, steering delay, speed
-// scale, gyro offset and scale, the accelerometer's and the gyro's latency) plus white noise and a slow zero-mean accelerometer disturbance. Private to src/sim.
+// scale, offset and latency, gyro offset and scale, the accelerometer's and the gyro's latency) plus white noise and a slow zero-mean accelerometer disturbance. Private to src/sim.
 #pragma once
 
 #include <cstdint>
@@ -35,7 +35,7 @@ class SensorModel {
   double dt_step_s_;
   Rng& rng_;
   std::vector<double> steer_history_;
-  std::deque<double> sensed_a_y_, sensed_r_;  // what the accelerometer and the gyro sense (latencies)
+  std::deque<double> sensed_a_y_, sensed_r_, sensed_speed_;  // what the accelerometer, the gyro and the speed signal sense (latencies)
   OrnsteinUhlenbeck disturbance_;
   double mu_esp_;
 };

@@ -25,6 +25,8 @@ struct HiddenCase {
   bool align = true;                    // run step 0
   bool two_outputs = false;             // identification.outputs [a_y, yaw_rate]
   double yaw_skew_s = 0;                // hidden gyro latency, found by step 0 (two outputs)
+  double speed_skew_s = 0;              // hidden speed-signal latency, found by step 0
+  double eg_tolerance = 0.01;           // |EG / truth - 1| after the ladder
 };
 
 void PrintDiagnosis(const discover::Diagnosis& d) {
@@ -63,6 +65,13 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
       } else if (l.apply) {
         EXPECT_LT(std::abs(l.latency_s), 0.012);
       }
+    }
+    if (l.role == config::Role::kSpeed && c.speed_skew_s > 0 && c.align) {
+      // A speed latency is weak (through v^2 and v r only) and found short: within 35 %
+      // (measured: 200 ms as 153.8 +- 4.7 ms with a_y alone, 250 ms as 213.7 +- 3.5 ms with two
+      // outputs; the joint refit's sigma is not honest here; docs/two-outputs.md).
+      EXPECT_TRUE(l.apply);
+      EXPECT_NEAR(l.latency_s, c.speed_skew_s, 0.35 * c.speed_skew_s);
     }
     if (l.role != config::Role::kSteeringWheelAngle) continue;
     if (l.apply) steer_applied = l.latency_s;
@@ -112,6 +121,7 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   for (const auto& e : c.expected) truth_effects.push_back(e);
   if (c.steer_skew_s > 0 && c.align) truth_effects.push_back("steer_delay");
   if (c.yaw_skew_s > 0 && c.align) truth_effects.push_back("gyro_delay");
+  if (c.speed_skew_s > 0 && c.align) truth_effects.push_back("speed_delay");
   const double floor = NoiseFloor(run, model::ModelSpec::FromNames(truth_effects));
   std::printf("  validation RMSE %.4f, noise floor %.4f\n", final_fit.rmse_validation_mps2, floor);
   EXPECT_LT(final_fit.rmse_validation_mps2, 1.10 * floor);
@@ -142,7 +152,7 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   }
   std::printf("  EG %.4f deg/g, truth %.4f (%+.2f %%)\n", final_fit.eg_deg_per_g, model::EgToDegPerG(run.eg_truth),
               100 * (final_fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth);
-  EXPECT_LT(std::abs(final_fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, 0.01);
+  EXPECT_LT(std::abs(final_fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth, c.eg_tolerance);
 }
 
 // Catches: a diagnosis that misses a steering-angle offset, or a ladder that does not add it.
@@ -225,6 +235,27 @@ TEST(HiddenEffectLong, GyroLatencyFoundByTimeAlignmentWithTwoOutputs) {
   c.two_outputs = true;
   c.yaw_skew_s = 0.060;
   RunCase(c, 68, 1.5);
+}
+
+// A speed-signal offset (-2 km/h, the vehicle speed only) with two outputs: a_y - v r leaves
+// -c r, so speed_offset is ranked first and added, the offset recovered within 0.1 m/s and both
+// outputs at their floors. EG only within 2.5 % (measured +1.81 %, offset -0.483 +- 0.010 of
+// -0.556 m/s): with speed_offset in the model EG moves with the offset's structural error
+// (docs/two-outputs.md, "The speed signal's errors"); the 1 % is not met for this effect.
+TEST(HiddenEffectLong, SpeedOffsetFoundWithTwoOutputs) {
+  HiddenCase c{"speed_off", {"speed_offset_kph=-2"}, {"speed_offset"}, {}, "speed_offset_mps", -2 / 3.6, 0.1};
+  c.two_outputs = true;
+  c.eg_tolerance = 0.025;
+  RunCase(c, 69, 1.5);
+}
+
+// A speed-signal latency (200 ms, exact in the simulator) with a_y alone: step 0 finds it with
+// a joint refit of model and shift (speed_delay), and the steering once more on the speed-aligned
+// data (a speed latency pulls the steering's shift); nothing is left for the ladder.
+TEST(HiddenEffectLong, SpeedLatencyFoundByTimeAlignment) {
+  HiddenCase c{"speed_lat", {"speed_delay_ms=200"}, {}, {}, "", 0, 0};
+  c.speed_skew_s = 0.200;
+  RunCase(c, 70, 1.5);
 }
 
 // Clean data with two outputs: the yaw-rate sensor effects are candidates too; nothing is added.

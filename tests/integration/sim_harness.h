@@ -97,7 +97,9 @@ inline std::vector<double> TruthVector(const SimulatedRun& run, const model::Mod
     if (n == "tyre_inv_mu_sq" && e.tyre_mu > 0) v = 1.0 / (e.tyre_mu * e.tyre_mu);
     if (n == "relaxation_length_m" && e.relaxation_length_m > 0) v = e.relaxation_length_m;
     if (n == "steer_delay_s") v = e.steer_delay_ms / 1000;
+    if (n == "speed_delay_s") v = e.speed_delay_ms / 1000;
     if (n == "speed_scale") v = e.speed_scale_pct / 100;
+    if (n == "speed_offset_mps") v = e.speed_offset_kph / 3.6;
     if (n == "accel_scale") v = e.accel_scale_pct / 100;
     if (n == "gyro_offset_radps") v = e.gyro_offset_degps * M_PI / 180;
     if (n == "gyro_scale") v = e.gyro_scale_pct / 100;

@@ -158,6 +158,38 @@ TEST(Effects, SpeedScaleMultipliesMeasuredSpeed) {
   }
 }
 
+TEST(Effects, SpeedOffsetAndLatencyActOnTheSpeedSignalOnly) {
+  // Catches an offset or latency applied to the true speed (the dynamics), to the wheel speeds,
+  // at standstill, in the wrong unit or direction: with the same noise draws
+  // v_meas,on - v_meas,off = |v(t - 200 ms)| - |v(t)| + 2 km/h while moving, 0 standing.
+  const auto p = RunPair([](config::SimEffects& e) {
+    e.speed_offset_kph = 2.0;
+    e.speed_delay_ms = 200.0;
+  });
+  ExpectSameTruth(p);
+  double max_lag = 0.0;
+  size_t moving = 0, standing = 0;
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    ASSERT_EQ(a.speed_mps, b.speed_mps);
+    for (int w = 0; w < 4; ++w) ASSERT_EQ(a.wheel_speed_meas_mps[w], b.wheel_speed_meas_mps[w]);
+    for (size_t i = 20; i < a.size(); ++i) {  // 200 ms = 20 samples at 100 Hz
+      const double v_then = std::fabs(a.speed_mps[i - 20]), v_now = std::fabs(a.speed_mps[i]);
+      if (v_then > 1.0 && v_now > 1.0) {
+        ASSERT_NEAR(b.speed_meas_mps[i] - a.speed_meas_mps[i], v_then - v_now + 2.0 / 3.6, 1e-9) << i;
+        max_lag = std::max(max_lag, std::fabs(v_then - v_now));
+        ++moving;
+      } else if (v_then < 0.01 && v_now < 0.01) {
+        ASSERT_EQ(b.speed_meas_mps[i], 0.0) << i;
+        ++standing;
+      }
+    }
+  }
+  EXPECT_GT(max_lag, 0.3);  // the comparison is not between two constants
+  EXPECT_GT(moving, 10000u);
+  EXPECT_GT(standing, 100u);
+}
+
 TEST(Effects, RollAddsGTimesPhiFromTheRollOde) {
   // Catches roll without its own dynamics (phi = k a_y instantly) or with the wrong gain/sign.
   const auto p = RunPair([](config::SimEffects& e) { e.roll_gradient_deg_per_g = 6.0; });

@@ -25,6 +25,8 @@ struct SimEffects {
   double relaxation_length_m = 0.0;      // slip-angle lag alpha_l' = (alpha - alpha_l) * v/sigma
   double steer_delay_ms = 0.0;           // the steering message carries d_sw(t - dt)
   double speed_scale_pct = 0.0;          // v_meas = (1 + eps) * v (wheel speeds and odometer too)
+  double speed_offset_kph = 0.0;         // vehicle speed signal only: v_meas = (1 + eps) * v + c while moving
+  double speed_delay_ms = 0.0;           // vehicle speed signal latency: v_meas(t) from v(t - tau)
   double gyro_offset_degps = 0.0;        // yaw-rate sensor: r_meas = (1 + k_r) r + r0, r0 here
   double gyro_scale_pct = 0.0;           // k_r * 100
   double accel_scale_pct = 0.0;          // accelerometer: a_y,meas = (1 + k_a) a_y + ..., k_a * 100

@@ -4,7 +4,10 @@
 //   steering: profile of the model's RSS over shifts of the steering (parameters held), then a
 //             joint refit of the model and the shift (the steer_delay term), which gives the
 //             standard error with the parameters free;
-//   speed:    profile of the model's RSS over shifts of the speed (parameters held);
+//   speed:    the same on the steering-aligned data, the joint refit with the speed_delay term;
+//             when the speed's latency is applied, the steering once more on the speed-aligned
+//             data (a 250 ms speed latency pulled the steering's shift by -14 ms), the two passes
+//             of the steering added;
 //   (both profiles score a_y: latencies are relative to a_y's)
 //   yaw rate: with two outputs, the yaw-rate RSS profile over shifts of the measured yaw rate,
 //             before the steering's (a gyro latency reaches a_y through the bank observer and

@@ -51,6 +51,9 @@ struct EffectInfo {
   // Identifiable only with the yaw rate as an output (accel_scale: from a_y alone it trades with
   // is). Not a default candidate of the a_y-only diagnosis either.
   bool needs_yaw_rate_output = false;
+  // Scored by the diagnosis without being asked for (--candidates): false for an effect whose
+  // quantity step 0 already estimates (speed_delay: the speed's latency).
+  bool default_candidate = true;
 };
 
 // Measured inputs of one stretch, read at fractional sample positions (for time shifts).

@@ -15,6 +15,8 @@ const std::vector<std::pair<std::string, Factory>>& Table() {
   static const std::vector<std::pair<std::string, Factory>> table = {
       {"steer_offset", MakeSteerOffset},       // inputs
       {"steer_delay", MakeSteerDelay},
+      {"speed_delay", MakeSpeedDelay},         // the speed read tau later, then offset and scale
+      {"speed_offset", MakeSpeedOffset},       // v_meas - c, then / (1 + eps)
       {"speed_scale", MakeSpeedScale},
       {"crossfall", MakeCrossfall},            // dynamics
       {"road_bank", MakeRoadBank},

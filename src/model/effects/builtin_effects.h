@@ -12,6 +12,8 @@ namespace ndsid::model {
 std::shared_ptr<const Effect> MakeSteerOffset();
 std::shared_ptr<const Effect> MakeSteerDelay();
 std::shared_ptr<const Effect> MakeSpeedScale();
+std::shared_ptr<const Effect> MakeSpeedOffset();
+std::shared_ptr<const Effect> MakeSpeedDelay();
 std::shared_ptr<const Effect> MakeCrossfall();
 std::shared_ptr<const Effect> MakeRoadBank();
 std::shared_ptr<const Effect> MakeSuperelevation();
