@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <sstream>
 
 #include "ndsid/common/error.h"
 
@@ -90,59 +89,46 @@ Report Tracker::Update(double hours, double eg, double eg_se, const stats::Cover
   return r;
 }
 
-std::string Tracker::Serialize() const {
-  std::ostringstream os;
-  os.precision(17);
-  os << history_.size() << '\n';
-  for (const EgPoint& p : history_) os << p.gated_hours << ' ' << p.eg << ' ' << p.eg_se << ' ' << p.kl << '\n';
-  os << snapshots_.size() << '\n';
-  for (const Snapshot& s : snapshots_) os << s.hours << ' ' << s.coverage.Serialize() << '\n';
-  os << under_since_hours_ << ' ' << static_cast<int>(last_.state) << '\n';
-  return os.str();
+nlohmann::json Tracker::ToJson() const {
+  nlohmann::json j;
+  j["history"] = nlohmann::json::array();
+  for (const EgPoint& p : history_)
+    j["history"].push_back({{"gated_hours", p.gated_hours}, {"eg", p.eg}, {"eg_se", p.eg_se}, {"kl", p.kl}});
+  j["snapshots"] = nlohmann::json::array();
+  for (const Snapshot& s : snapshots_) j["snapshots"].push_back({{"hours", s.hours}, {"coverage", s.coverage.ToJson()}});
+  j["under_since_hours"] = under_since_hours_;
+  j["state"] = StateName(last_.state);
+  return j;
 }
 
-void Tracker::Deserialize(const std::string& text) {
-  std::istringstream is(text);
-  size_t n = 0;
-  is >> n;
-  if (is.fail()) throw Error("adequacy state: bad history length");
-  if (n > kMaxHistoryPoints) {
-    throw Error("adequacy state: history of " + std::to_string(n) + " points, more than the limit of " +
-                std::to_string(kMaxHistoryPoints));
-  }
-  std::vector<EgPoint> history;
-  history.reserve(std::min<size_t>(n, 4096));  // grows with what is really there, not with the claim
+void Tracker::FromJson(const JsonIn& in) {
+  const JsonIn h = in.At("history");
+  const size_t n = h.Size(kMaxHistoryPoints);
+  std::vector<EgPoint> history(n);
   for (size_t i = 0; i < n; ++i) {
-    EgPoint p;
-    is >> p.gated_hours >> p.eg >> p.eg_se >> p.kl;
-    if (is.fail()) throw Error("adequacy state: history truncated at point " + std::to_string(i) + " of " + std::to_string(n));
-    history.push_back(p);
+    const JsonIn p = h.At(i);
+    history[i] = EgPoint{p.Finite("gated_hours"), p.Finite("eg"), p.Finite("eg_se"), p.Finite("kl")};
   }
-  size_t ns = 0;
-  is >> ns;
-  if (is.fail() || ns > 10'000) throw Error("adequacy state: bad snapshot count");
+  const JsonIn sn = in.At("snapshots");
+  const size_t ns = sn.Size(kMaxSnapshots);
   std::deque<Snapshot> snaps;
-  std::string line;
-  std::getline(is, line);
   for (size_t i = 0; i < ns; ++i) {
-    if (!std::getline(is, line)) throw Error("adequacy state: truncated snapshots");
-    std::istringstream ls(line);
-    Snapshot s;
-    ls >> s.hours;
-    std::string rest;
-    std::getline(ls, rest);
-    s.coverage = stats::Coverage::Deserialize(rest);
-    snaps.push_back(std::move(s));
+    const JsonIn s = sn.At(i);
+    snaps.push_back(Snapshot{s.Finite("hours"), stats::Coverage::FromJson(s.At("coverage"))});
   }
-  int state = 0;
-  double under = -1;
-  is >> under >> state;
-  if (is.fail()) throw Error("adequacy state: truncated");
+  const double under = in.Finite("under_since_hours");
+  const std::string name = in.String("state");
+  State state = State::kCollecting;
+  bool known = false;
+  for (State st : {State::kCollecting, State::kConverging, State::kAdequate}) {
+    if (name == StateName(st)) state = st, known = true;
+  }
+  if (!known) in.At("state").Fail("'" + name + "' is none of COLLECTING, CONVERGING, ADEQUATE");
   history_ = std::move(history);
   snapshots_ = std::move(snaps);
   under_since_hours_ = under;
   last_ = Report{};
-  last_.state = static_cast<State>(std::clamp(state, 0, 2));
+  last_.state = state;
 }
 
 }  // namespace ndsid::adequacy

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "ndsid/can/frame_log.h"
-#include "fit_json.h"
+#include "ndsid/pipeline/estimate_codec.h"
 #include "progress.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/common/error.h"
@@ -94,42 +94,10 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
 
 namespace {
 
-nlohmann::json CheckJson(const adequacy::Check& c) {
-  return {{"name", c.name}, {"verdict", adequacy::VerdictName(c.verdict)}, {"value", c.value},
-          {"informative_s", c.informative_s}, {"message", c.message}};
-}
-
-// The checks of the window and of the estimate, and every drive that failed one.
-nlohmann::json PlausibilityJson(const adequacy::PlausibilityReport& p) {
-  nlohmann::json j = {{"passed", p.passed()}, {"reason", p.Reason()}, {"drives_checked", p.drives.size()},
-                      {"drives_failed", p.drives_failed}, {"checks", nlohmann::json::array()},
-                      {"failed_drives", nlohmann::json::array()}};
-  for (const auto& c : p.checks) j["checks"].push_back(CheckJson(c));
-  for (const auto& d : p.drives) {
-    nlohmann::json failed = nlohmann::json::array();
-    for (const auto& c : d.checks)
-      if (c.verdict == adequacy::Verdict::kFailed) failed.push_back(CheckJson(c));
-    if (!failed.empty()) j["failed_drives"].push_back({{"drive", d.drive_id}, {"t0_ns", d.t0_ns}, {"checks", failed}});
-  }
-  return j;
-}
-
+// The estimate's document (pipeline::EstimateToJson, the form the daemon's state keeps) with
+// the run's vehicle and effects.
 nlohmann::json EstimateJson(const config::Config& config, const pipeline::Estimate& e) {
-  nlohmann::json j = FitToJson(e.fit);
-  j["steady_state"] = {{"valid", e.steady_state.valid}, {"reason", e.steady_state.reason},
-                       {"eg_rad_per_mps2", e.steady_state.eg_rad_per_mps2}, {"eg_se_rad_per_mps2", e.steady_state.eg_se},
-                       {"steer_ratio", e.steady_state.steer_ratio}, {"steer_offset_rad", e.steady_state.steer_offset_rad}};
-  j["adequacy"] = {{"state", adequacy::StateName(e.adequacy.state)}, {"rel_change", e.adequacy.rel_change},
-                   {"rel_se", e.adequacy.rel_se}, {"kl_growth", e.adequacy.kl_growth},
-                   {"hours_under_tolerance", e.adequacy.hours_under_tolerance},
-                   {"explanation", e.adequacy.explanation}};
-  j["plausibility"] = PlausibilityJson(e.plausibility);
-  nlohmann::json ev = nlohmann::json::array();
-  for (const auto& sp : e.standstill)
-    ev.push_back({{"param", sp.param}, {"mean", sp.value}, {"se", sp.sd}, {"stops", sp.stops}, {"seconds", sp.seconds}});
-  j["standstill"] = {{"stops", e.standstill_stops}, {"seconds", e.standstill_seconds}, {"evidence", ev}};
-  j["gated_hours"] = e.gated_hours;
-  j["window_hours"] = e.window_hours;
+  nlohmann::json j = pipeline::EstimateToJson(e);
   j["vehicle"] = config.vehicle.name;
   j["effects"] = config.model_effects;
   return j;

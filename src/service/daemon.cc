@@ -557,7 +557,7 @@ int ShowState(const std::string& config_path) {
   }
   stats::Accumulator acc(c, c.sync.rate_hz);
   try {
-    acc.Restore(st.accumulator);
+    acc.FromJson(JsonIn(st.accumulator, "state.accumulator"));
   } catch (const std::exception& e) {
     std::printf("not usable: %s\n", e.what());
     return 1;

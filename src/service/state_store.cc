@@ -9,10 +9,11 @@
 #include <ctime>
 #include <filesystem>
 #include <limits>
-#include <map>
-#include <sstream>
 
 #include "ndsid/common/atomic_file.h"
+#include "ndsid/common/json_codec.h"
+#include "ndsid/pipeline/estimate_codec.h"
+#include "state_migration.h"
 #include "state_store.h"
 
 namespace ndsid::service {
@@ -22,8 +23,6 @@ namespace {
 constexpr std::string_view kMagic = "NDSID-STATE";
 constexpr double kBoxSlack = 1e-9;  // relative: a value on the box edge is inside
 
-// ---- Estimate as "key value" lines --------------------------------------------------------
-
 std::string OneLine(std::string s) {
   for (char& c : s) {
     if (c == '\n' || c == '\r') c = ' ';
@@ -31,292 +30,25 @@ std::string OneLine(std::string s) {
   return s;
 }
 
-class KeyWriter {
- public:
-  KeyWriter() { os_.precision(17); }
-  template <typename T>
-  void Put(const std::string& key, const T& v) {
-    os_ << key << ' ' << v << '\n';
-  }
-  void PutString(const std::string& key, const std::string& v) { os_ << key << ' ' << OneLine(v) << '\n'; }
-  std::string str() const { return os_.str(); }
-
- private:
-  std::ostringstream os_;
-};
-
-class KeyReader {
- public:
-  explicit KeyReader(const std::string& text) {
-    std::istringstream is(text);
-    std::string line;
-    while (std::getline(is, line)) {
-      const auto sp = line.find(' ');
-      if (sp == std::string::npos) {
-        values_[line] = "";
-      } else {
-        values_[line.substr(0, sp)] = line.substr(sp + 1);
-      }
-    }
-  }
-  const std::string& String(const std::string& key) const {
-    const auto it = values_.find(key);
-    if (it == values_.end()) throw StateFileError(StateFileError::Kind::kCorrupt, "state: missing key '" + key + "'");
-    return it->second;
-  }
-  double Number(const std::string& key) const {
-    const std::string& s = String(key);
-    char* end = nullptr;
-    errno = 0;
-    const double v = std::strtod(s.c_str(), &end);
-    if (end == s.c_str() || errno == ERANGE) {
-      throw StateFileError(StateFileError::Kind::kCorrupt, "state: key '" + key + "' is not a number: '" + s + "'");
-    }
-    return v;  // may be nan/inf: the sanity checks decide
-  }
-  int64_t Integer(const std::string& key) const { return static_cast<int64_t>(std::llround(Number(key))); }
-  int64_t Int64(const std::string& key) const {
-    const std::string& s = String(key);
-    try {
-      return std::stoll(s);
-    } catch (const std::exception&) {
-      throw StateFileError(StateFileError::Kind::kCorrupt, "state: key '" + key + "' is not an integer: '" + s + "'");
-    }
-  }
-  bool Flag(const std::string& key) const { return Number(key) != 0; }
-
- private:
-  std::map<std::string, std::string> values_;
-};
-
-std::string EncodeEstimate(const pipeline::Estimate& e) {
-  KeyWriter w;
-  w.Put("data_time_ns", e.data_time_ns);
-  w.Put("gated_hours", e.gated_hours);
-  w.Put("window_hours", e.window_hours);
-  w.Put("training_segments", e.training_segments);
-  w.Put("validation_segments", e.validation_segments);
-  const identify::IdentificationResult& f = e.fit;
-  w.Put("fit.valid", int{f.valid});
-  w.PutString("fit.reason", f.reason);
-  for (int i = 0; i < model::kNumParams; ++i) {
-    const std::string k = std::string("fit.param.") + model::kParamNames[i];
-    w.Put(k + ".value", f.params[i].value);
-    w.Put(k + ".se", f.params[i].se);
-    w.Put(k + ".fixed", int{f.params[i].fixed});
-    w.Put(k + ".at_bound", int{f.params[i].at_bound});
-  }
-  w.Put("fit.eg", f.eg_rad_per_mps2);
-  w.Put("fit.eg_se", f.eg_se_rad_per_mps2);
-  w.Put("fit.eg_deg_per_g", f.eg_deg_per_g);
-  w.Put("fit.eg_se_deg_per_g", f.eg_se_deg_per_g);
-  w.PutString("fit.model", f.model);
-  w.Put("fit.effect_count", f.effect_params.size());
-  for (size_t i = 0; i < f.effect_params.size(); ++i) {
-    const identify::ParameterEstimate& p = f.effect_params[i];
-    const std::string k = "fit.effect." + std::to_string(i);
-    w.PutString(k + ".name", p.name);
-    w.PutString(k + ".unit", p.unit);
-    w.Put(k + ".value", p.value);
-    w.Put(k + ".se", p.se);
-    w.Put(k + ".fixed", int{p.fixed});
-    w.Put(k + ".at_bound", int{p.at_bound});
-  }
-  std::ostringstream corr;
-  corr.precision(17);
-  corr << f.correlation.size();
-  for (double c : f.correlation) corr << ' ' << c;
-  w.PutString("fit.correlation", corr.str());
-  w.Put("fit.rmse_train", f.rmse_train_mps2);
-  w.Put("fit.rmse_validation", f.rmse_validation_mps2);
-  w.Put("fit.residuals_train", f.residuals_train);
-  w.Put("fit.residuals_validation", f.residuals_validation);
-  w.Put("fit.chunks", f.chunks);
-  w.Put("fit.train_hours", f.train_hours);
-  w.Put("fit.iterations", f.iterations);
-  w.Put("fit.solve_seconds", f.solve_seconds);
-  w.PutString("fit.termination", f.termination);
-  w.PutString("fit.se_method", f.se_method);
-  const stats::SteadyStateEstimate& s = e.steady_state;
-  w.Put("steady.valid", int{s.valid});
-  w.PutString("steady.reason", s.reason);
-  w.Put("steady.steer_ratio", s.steer_ratio);
-  w.Put("steady.eg", s.eg_rad_per_mps2);
-  w.Put("steady.eg_se", s.eg_se);
-  w.Put("steady.steer_offset_rad", s.steer_offset_rad);
-  w.Put("steady.n", s.n);
-  const adequacy::Report& a = e.adequacy;
-  w.Put("adequacy.state", static_cast<int>(a.state));
-  w.Put("adequacy.gated_hours", a.gated_hours);
-  w.Put("adequacy.rel_change", a.rel_change);
-  w.Put("adequacy.rel_se", a.rel_se);
-  w.Put("adequacy.kl_growth", a.kl_growth);
-  w.Put("adequacy.hours_under_tolerance", a.hours_under_tolerance);
-  w.PutString("adequacy.explanation", a.explanation);
-  return w.str();
-}
-
-pipeline::Estimate DecodeEstimate(const std::string& text) {
-  const KeyReader r(text);
-  pipeline::Estimate e;
-  e.data_time_ns = r.Int64("data_time_ns");
-  e.gated_hours = r.Number("gated_hours");
-  e.window_hours = r.Number("window_hours");
-  e.training_segments = static_cast<size_t>(std::max<int64_t>(0, r.Integer("training_segments")));
-  e.validation_segments = static_cast<size_t>(std::max<int64_t>(0, r.Integer("validation_segments")));
-  identify::IdentificationResult& f = e.fit;
-  f.valid = r.Flag("fit.valid");
-  f.reason = r.String("fit.reason");
-  for (int i = 0; i < model::kNumParams; ++i) {
-    const std::string k = std::string("fit.param.") + model::kParamNames[i];
-    f.params[i].name = model::kParamNames[i];
-    f.params[i].unit = model::kParamUnits[i];
-    f.params[i].value = r.Number(k + ".value");
-    f.params[i].se = r.Number(k + ".se");
-    f.params[i].fixed = r.Flag(k + ".fixed");
-    f.params[i].at_bound = r.Flag(k + ".at_bound");
-  }
-  f.eg_rad_per_mps2 = r.Number("fit.eg");
-  f.eg_se_rad_per_mps2 = r.Number("fit.eg_se");
-  f.eg_deg_per_g = r.Number("fit.eg_deg_per_g");
-  f.eg_se_deg_per_g = r.Number("fit.eg_se_deg_per_g");
-  f.model = r.String("fit.model");
-  const int64_t effects = r.Integer("fit.effect_count");
-  if (effects < 0 || effects > 64) throw StateFileError(StateFileError::Kind::kCorrupt, "state: implausible effect count");
-  for (int64_t i = 0; i < effects; ++i) {
-    const std::string k = "fit.effect." + std::to_string(i);
-    identify::ParameterEstimate p;
-    p.name = r.String(k + ".name");
-    p.unit = r.String(k + ".unit");
-    p.value = r.Number(k + ".value");
-    p.se = r.Number(k + ".se");
-    p.fixed = r.Flag(k + ".fixed");
-    p.at_bound = r.Flag(k + ".at_bound");
-    f.effect_params.push_back(std::move(p));
-  }
-  std::istringstream corr(r.String("fit.correlation"));
-  size_t n_corr = 0;
-  corr >> n_corr;
-  if (corr.fail() || n_corr > 64 * 64) throw StateFileError(StateFileError::Kind::kCorrupt, "state: bad correlation matrix");
-  f.correlation.resize(n_corr);
-  for (double& c : f.correlation) corr >> c;
-  f.rmse_train_mps2 = r.Number("fit.rmse_train");
-  f.rmse_validation_mps2 = r.Number("fit.rmse_validation");
-  f.residuals_train = static_cast<size_t>(std::max<int64_t>(0, r.Integer("fit.residuals_train")));
-  f.residuals_validation = static_cast<size_t>(std::max<int64_t>(0, r.Integer("fit.residuals_validation")));
-  f.chunks = static_cast<size_t>(std::max<int64_t>(0, r.Integer("fit.chunks")));
-  f.train_hours = r.Number("fit.train_hours");
-  f.iterations = static_cast<int>(r.Integer("fit.iterations"));
-  f.solve_seconds = r.Number("fit.solve_seconds");
-  f.termination = r.String("fit.termination");
-  f.se_method = r.String("fit.se_method");
-  stats::SteadyStateEstimate& s = e.steady_state;
-  s.valid = r.Flag("steady.valid");
-  s.reason = r.String("steady.reason");
-  s.steer_ratio = r.Number("steady.steer_ratio");
-  s.eg_rad_per_mps2 = r.Number("steady.eg");
-  s.eg_se = r.Number("steady.eg_se");
-  s.steer_offset_rad = r.Number("steady.steer_offset_rad");
-  s.n = r.Number("steady.n");
-  adequacy::Report& a = e.adequacy;
-  a.state = static_cast<adequacy::State>(std::clamp<int64_t>(r.Integer("adequacy.state"), 0, 2));
-  a.gated_hours = r.Number("adequacy.gated_hours");
-  a.rel_change = r.Number("adequacy.rel_change");
-  a.rel_se = r.Number("adequacy.rel_se");
-  a.kl_growth = r.Number("adequacy.kl_growth");
-  a.hours_under_tolerance = r.Number("adequacy.hours_under_tolerance");
-  a.explanation = r.String("adequacy.explanation");
-  return e;
-}
-
-// ---- Standstill stops as JSON -------------------------------------------------------------
-// [{"drive":n,"t_start_ns":n,"seconds":x,"samples":n,"mean_lat_accel_mps2":x,
-//   "mean_yaw_rate_radps":x|null}, ...]  (null: the bus had no yaw rate)
-
-std::string EncodeStops(const std::vector<gate::StandstillStop>& stops) {
-  nlohmann::json a = nlohmann::json::array();
-  for (const gate::StandstillStop& s : stops) {
-    nlohmann::json j{{"drive", s.drive_id}, {"t_start_ns", s.t_start_ns}, {"seconds", s.seconds}, {"samples", s.samples},
-                     {"mean_lat_accel_mps2", s.mean_lat_accel_mps2}};
-    j["mean_yaw_rate_radps"] = std::isfinite(s.mean_yaw_rate_radps) ? nlohmann::json(s.mean_yaw_rate_radps) : nlohmann::json();
-    a.push_back(std::move(j));
-  }
-  return a.dump();
-}
-
-std::vector<gate::StandstillStop> DecodeStops(const std::string& text) {
-  using K = StateFileError::Kind;
-  nlohmann::json a;
-  try {
-    a = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    throw StateFileError(K::kCorrupt, std::string("state: standstill section: ") + e.what());
-  }
-  if (!a.is_array()) throw StateFileError(K::kCorrupt, "state: standstill section is not an array");
-  if (a.size() > kMaxPersistedStops) {
-    throw StateFileError(K::kCorrupt, "state: standstill section holds " + std::to_string(a.size()) + " stops (at most " +
-                                          std::to_string(kMaxPersistedStops) + ")");
-  }
-  std::vector<gate::StandstillStop> out;
-  out.reserve(a.size());
-  for (size_t i = 0; i < a.size(); ++i) {
-    const nlohmann::json& j = a[i];
-    const std::string where = "state: standstill stop " + std::to_string(i) + ": ";
-    auto number = [&](const char* key) -> const nlohmann::json& {
-      if (!j.is_object() || !j.contains(key) || !j[key].is_number())
-        throw StateFileError(K::kCorrupt, where + "'" + key + "' missing or not a number");
-      return j[key];
-    };
-    auto integer = [&](const char* key) -> const nlohmann::json& {
-      const nlohmann::json& v = number(key);
-      if (!v.is_number_integer()) throw StateFileError(K::kCorrupt, where + "'" + key + "' is not an integer");
-      return v;
-    };
-    gate::StandstillStop s;
-    s.drive_id = integer("drive").get<int64_t>();
-    s.t_start_ns = integer("t_start_ns").get<int64_t>();
-    if (!integer("samples").is_number_unsigned()) throw StateFileError(K::kCorrupt, where + "'samples' is negative");
-    s.samples = j["samples"].get<uint64_t>();
-    s.seconds = number("seconds").get<double>();
-    s.mean_lat_accel_mps2 = number("mean_lat_accel_mps2").get<double>();
-    if (!j.contains("mean_yaw_rate_radps")) throw StateFileError(K::kCorrupt, where + "'mean_yaw_rate_radps' missing");
-    const nlohmann::json& r = j["mean_yaw_rate_radps"];
-    if (!r.is_null() && !r.is_number()) throw StateFileError(K::kCorrupt, where + "'mean_yaw_rate_radps' not a number");
-    s.mean_yaw_rate_radps = r.is_null() ? std::numeric_limits<double>::quiet_NaN() : r.get<double>();
-    // A stop is at most a (very long) parking of 10^7 s; the mean a_y a few g at the most.
-    if (s.drive_id < 0 || s.samples == 0 || !(s.seconds > 0 && s.seconds <= 1e7) || !(std::abs(s.mean_lat_accel_mps2) <= 1e3) ||
-        !(std::isnan(s.mean_yaw_rate_radps) || std::abs(s.mean_yaw_rate_radps) <= 1e3))
-      throw StateFileError(K::kCorrupt, where + "out of range (drive, samples, seconds, mean a_y or mean yaw rate)");
-    out.push_back(s);
-  }
-  return out;
-}
-
-// ---- Sections ----------------------------------------------------------------------------
-
-void PutSection(std::string& out, const std::string& name, const std::string& bytes) {
-  out += name + ' ' + std::to_string(bytes.size()) + '\n';
-  out += bytes;
-  out += '\n';
-}
-
-std::map<std::string, std::string> SplitSections(const std::string& payload) {
-  std::map<std::string, std::string> sections;
-  size_t pos = 0;
-  while (pos < payload.size()) {
-    const size_t nl = payload.find('\n', pos);
-    if (nl == std::string::npos) throw StateFileError(StateFileError::Kind::kCorrupt, "state: truncated section header");
-    std::istringstream hs(payload.substr(pos, nl - pos));
-    std::string name;
-    uint64_t n = 0;
-    hs >> name >> n;
-    if (hs.fail() || n > payload.size() - (nl + 1) || payload.size() - (nl + 1) - n < 1 || payload[nl + 1 + n] != '\n') {
-      throw StateFileError(StateFileError::Kind::kCorrupt, "state: malformed section '" + name + "'");
-    }
-    sections[name] = payload.substr(nl + 1, n);
-    pos = nl + 1 + n + 1;
-  }
-  return sections;
+// The document (docs/state-format.md) -> LearnedState; the statistics stay documents until
+// RestoreState checks them against the configuration.
+LearnedState FromDocument(const nlohmann::json& doc, const std::string& vehicle) {
+  const JsonIn in(doc, "state");
+  LearnedState st;
+  st.vehicle = vehicle;
+  st.data_time_ns = in.Int64("data_time_ns");
+  st.saved_unix_ns = in.Int64("saved_unix_ns");
+  const int64_t ids = in.Int64("identifications");
+  if (ids < 0 || ids > std::numeric_limits<int32_t>::max()) in.At("identifications").Fail("out of range");
+  st.identifications = static_cast<int32_t>(ids);
+  st.last_fit_gated_hours = in.Number("last_fit_gated_hours");
+  if (!in.At("accumulator").raw().is_object()) in.At("accumulator").Fail("not an object");
+  if (!in.At("adequacy").raw().is_object()) in.At("adequacy").Fail("not an object");
+  st.accumulator = in.At("accumulator").raw();
+  st.adequacy = in.At("adequacy").raw();
+  if (!in.At("estimate").raw().is_null()) st.last_estimate = pipeline::EstimateFromJson(in.At("estimate"));
+  st.stops = pipeline::StopsFromJson(in.At("standstill"), kMaxPersistedStops);
+  return st;
 }
 
 std::string UtcStamp() {
@@ -326,13 +58,6 @@ std::string UtcStamp() {
   char buf[32];
   std::strftime(buf, sizeof buf, "%Y%m%dT%H%M%SZ", &tm);
   return buf;
-}
-
-bool Finite(std::initializer_list<double> values) {
-  for (double v : values) {
-    if (!std::isfinite(v)) return false;
-  }
-  return true;
 }
 
 }  // namespace
@@ -357,19 +82,16 @@ std::string StateFileName(const std::string& vehicle) {
 }
 
 std::string EncodeState(const LearnedState& st) {
-  std::string payload;
-  {
-    KeyWriter meta;
-    meta.Put("data_time_ns", st.data_time_ns);
-    meta.Put("saved_unix_ns", st.saved_unix_ns);
-    meta.Put("identifications", st.identifications);
-    meta.Put("last_fit_gated_hours", st.last_fit_gated_hours);
-    PutSection(payload, "meta", meta.str());
-  }
-  PutSection(payload, "accumulator", st.accumulator);
-  PutSection(payload, "adequacy", st.adequacy);
-  if (st.last_estimate) PutSection(payload, "estimate", EncodeEstimate(*st.last_estimate));
-  if (!st.stops.empty()) PutSection(payload, "standstill", EncodeStops(st.stops));
+  nlohmann::json doc;
+  doc["data_time_ns"] = st.data_time_ns;
+  doc["saved_unix_ns"] = st.saved_unix_ns;
+  doc["identifications"] = st.identifications;
+  doc["last_fit_gated_hours"] = st.last_fit_gated_hours;
+  doc["accumulator"] = st.accumulator;
+  doc["adequacy"] = st.adequacy;
+  doc["estimate"] = st.last_estimate ? pipeline::EstimateToJson(*st.last_estimate) : nlohmann::json();
+  doc["standstill"] = pipeline::StopsToJson(st.stops);
+  const std::string payload = ToCbor(doc);
   char checksum[17];
   std::snprintf(checksum, sizeof checksum, "%016llx", static_cast<unsigned long long>(Fnv1a64(payload)));
   std::string out;
@@ -395,8 +117,8 @@ LearnedState DecodeState(const std::string& bytes, const std::string& vehicle) {
   }
   if (lines[0].rfind(std::string(kMagic) + ' ', 0) != 0) throw StateFileError(K::kCorrupt, "state: not an ndsid state file (bad magic)");
   const std::string version = lines[0].substr(kMagic.size() + 1);
-  if (version != std::to_string(kStateFormatVersion)) {
-    throw StateFileError(K::kIncompatible, "state: format version " + version + ", this ndsidd reads version " +
+  if (version != std::to_string(kStateFormatVersion) && version != "1") {
+    throw StateFileError(K::kIncompatible, "state: format version " + version + ", this ndsidd reads versions 1 to " +
                                                std::to_string(kStateFormatVersion));
   }
   if (lines[1].rfind("vehicle ", 0) != 0) throw StateFileError(K::kCorrupt, "state: missing vehicle line");
@@ -415,25 +137,14 @@ LearnedState DecodeState(const std::string& bytes, const std::string& vehicle) {
   }
   const std::string_view payload(bytes.data() + pos, n);
   if (Fnv1a64(payload) != checksum) throw StateFileError(K::kCorrupt, "state: checksum mismatch (payload damaged)");
-
-  const auto sections = SplitSections(std::string(payload));
-  auto section = [&](const std::string& name) -> const std::string& {
-    const auto it = sections.find(name);
-    if (it == sections.end()) throw StateFileError(K::kCorrupt, "state: missing section '" + name + "'");
-    return it->second;
-  };
-  LearnedState st;
-  st.vehicle = file_vehicle;
-  const KeyReader meta(section("meta"));
-  st.data_time_ns = meta.Int64("data_time_ns");
-  st.saved_unix_ns = meta.Int64("saved_unix_ns");
-  st.identifications = static_cast<int32_t>(meta.Integer("identifications"));
-  st.last_fit_gated_hours = meta.Number("last_fit_gated_hours");
-  st.accumulator = section("accumulator");
-  st.adequacy = section("adequacy");
-  if (sections.count("estimate")) st.last_estimate = DecodeEstimate(sections.at("estimate"));
-  if (sections.count("standstill")) st.stops = DecodeStops(sections.at("standstill"));
-  return st;
+  try {
+    const nlohmann::json doc = version == "1" ? MigrateStateV1(payload) : ParseCbor(payload, "state payload");
+    return FromDocument(doc, file_vehicle);
+  } catch (const StateFileError&) {
+    throw;
+  } catch (const Error& e) {
+    throw StateFileError(K::kCorrupt, e.what());
+  }
 }
 
 // ---- StateStore --------------------------------------------------------------------------
@@ -513,8 +224,8 @@ LearnedState CaptureState(const pipeline::Pipeline& pipeline, const config::Conf
       std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
   st.identifications = identifications;
   st.last_fit_gated_hours = pipeline.last_fit_gated_hours();
-  st.accumulator = pipeline.accumulator().Serialize();
-  st.adequacy = pipeline.adequacy().Serialize();
+  st.accumulator = pipeline.accumulator().ToJson();
+  st.adequacy = pipeline.adequacy().ToJson();
   st.last_estimate = pipeline.last_estimate();
   st.stops.assign(pipeline.stops().begin(), pipeline.stops().end());  // at most kMaxPersistedStops
   return st;
@@ -523,7 +234,9 @@ LearnedState CaptureState(const pipeline::Pipeline& pipeline, const config::Conf
 std::string CheckEstimate(const pipeline::Estimate& e, const config::Config& config) {
   const identify::IdentificationResult& f = e.fit;
   if (!f.valid) return "";  // an invalid estimate carries its reason and is never used as a value
-  if (!Finite({f.eg_rad_per_mps2, f.eg_se_rad_per_mps2, f.eg_deg_per_g, e.gated_hours})) return "non-finite EG";
+  for (double v : {f.eg_rad_per_mps2, f.eg_se_rad_per_mps2, f.eg_deg_per_g, e.gated_hours}) {
+    if (!std::isfinite(v)) return "non-finite EG";
+  }
   for (int i = 0; i < model::kNumParams; ++i) {
     const double v = f.params[i].value;
     const config::ParameterSpec& box = config.identification.params[i];
@@ -555,15 +268,12 @@ void RestoreState(pipeline::Pipeline& pipeline, const config::Config& config, co
   stats::Accumulator acc(config, config.sync.rate_hz);
   adequacy::Tracker tracker(config.adequacy);
   try {
-    acc.Restore(st.accumulator);
-    tracker.Deserialize(st.adequacy);
+    acc.FromJson(JsonIn(st.accumulator, "state.accumulator"));
+    tracker.FromJson(JsonIn(st.adequacy, "state.adequacy"));
   } catch (const StateFileError&) {
     throw;
   } catch (const Error& e) {
     throw StateFileError(K::kCorrupt, e.what());
-  }
-  for (const adequacy::EgPoint& p : tracker.history()) {
-    if (!Finite({p.gated_hours, p.eg, p.eg_se, p.kl})) throw StateFileError(K::kCorrupt, "adequacy history: non-finite value");
   }
   if (!std::isfinite(st.last_fit_gated_hours)) throw StateFileError(K::kCorrupt, "non-finite last_fit_gated_hours");
   std::optional<pipeline::Estimate> last = st.last_estimate;
@@ -571,8 +281,8 @@ void RestoreState(pipeline::Pipeline& pipeline, const config::Config& config, co
     dropped = CheckEstimate(*last, config);
     if (!dropped.empty()) last.reset();
   }
-  pipeline.mutable_accumulator().Restore(st.accumulator);
-  pipeline.mutable_adequacy().Deserialize(st.adequacy);
+  pipeline.mutable_accumulator().FromJson(JsonIn(st.accumulator, "state.accumulator"));
+  pipeline.mutable_adequacy().FromJson(JsonIn(st.adequacy, "state.adequacy"));
   pipeline.RestoreLastEstimate(std::move(last), std::min(st.last_fit_gated_hours, pipeline.accumulator().gated_hours()));
   pipeline.RestoreStops(st.stops);
 }

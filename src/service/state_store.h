@@ -10,8 +10,11 @@
 //   payload_bytes <n>\n
 //   payload_fnv1a64 <16 hex digits>\n
 //   \n
-//   <payload: sections "<name> <bytes>\n<bytes>\n": meta, accumulator, adequacy, estimate,
-//    standstill (a JSON array of the window's stops; absent in older files: no stops)>
+//   <payload: one document in CBOR (docs/state-format.md): data_time_ns, saved_unix_ns,
+//    identifications, last_fit_gated_hours, accumulator, adequacy, estimate (null: none yet),
+//    standstill (the window's stops)>
+// Version 1 files (a payload of text and binary sections) still load: state_migration.h turns
+// them into the same document.
 //
 // Threads: CaptureState/RestoreState on the reading thread (they touch the pipeline); Encode and
 // StateStore::Save may run on the persist helper (they touch only the captured LearnedState).
@@ -23,12 +26,14 @@
 #include <string_view>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "ndsid/common/error.h"
 #include "ndsid/pipeline/pipeline.h"
 
 namespace ndsid::service {
 
-inline constexpr int kStateFormatVersion = 1;
+inline constexpr int kStateFormatVersion = 2;
 
 struct LearnedState {
   std::string vehicle;
@@ -36,8 +41,8 @@ struct LearnedState {
   int64_t saved_unix_ns = 0;      // wall clock at capture
   int32_t identifications = 0;    // fits accepted since the state began
   double last_fit_gated_hours = -1;
-  std::string accumulator;        // stats::Accumulator::Serialize()
-  std::string adequacy;           // adequacy::Tracker::Serialize()
+  nlohmann::json accumulator;     // stats::Accumulator::ToJson()
+  nlohmann::json adequacy;        // adequacy::Tracker::ToJson()
   std::optional<pipeline::Estimate> last_estimate;
   std::vector<gate::StandstillStop> stops;  // the window's standstill stops (evidence)
 };

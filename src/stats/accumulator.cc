@@ -2,9 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
-#include <type_traits>
 
 #include "ndsid/common/error.h"
 
@@ -157,196 +155,128 @@ double Accumulator::window_hours() const {
   return s / 3600.0;
 }
 
-// ---- Persistence --------------------------------------------------------------------------
+// ---- Persistence (the learned-state codec, docs/state-format.md) ---------------------------
 
 namespace {
 
-constexpr char kAccumulatorTagV1[4] = {'A', 'C', 'C', '1'};  // without the open drive
-constexpr char kAccumulatorTag[4] = {'A', 'C', 'C', '2'};    // + the open drive
-constexpr uint64_t kMaxCount = uint64_t{1} << 32;  // no count in a plausible state comes near this
+constexpr size_t kMaxSegmentRows = size_t{1} << 26;  // 2^26 decimated samples: weeks of one stretch
+constexpr size_t kMaxListed = size_t{1} << 22;       // drives or segments in one state
+constexpr size_t kSampleFloats = 5;                  // steer, speed, a_y, yaw rate, a_x
 
-class ByteWriter {
- public:
-  template <typename T>
-  void Put(const T& v) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    out_.append(reinterpret_cast<const char*>(&v), sizeof v);
-  }
-  void PutBlob(const std::string& s) {
-    Put<uint64_t>(s.size());
-    out_ += s;
-  }
-  std::string& str() { return out_; }
-
- private:
-  std::string out_;
-};
-
-class ByteReader {
- public:
-  explicit ByteReader(const std::string& in) : in_(in) {}
-  template <typename T>
-  T Get() {
-    static_assert(std::is_trivially_copyable_v<T>);
-    if (in_.size() - pos_ < sizeof(T)) throw Error("accumulator state: truncated");
-    T v;
-    std::memcpy(&v, in_.data() + pos_, sizeof v);
-    pos_ += sizeof v;
-    return v;
-  }
-  double Finite() {
-    const double v = Get<double>();
-    if (!std::isfinite(v)) throw Error("accumulator state: non-finite value");
-    return v;
-  }
-  uint64_t Count() {
-    const uint64_t n = Get<uint64_t>();
-    if (n > kMaxCount || n > in_.size() - pos_ + 1) throw Error("accumulator state: implausible count");
-    return n;
-  }
-  std::string Blob() {
-    const uint64_t n = Count();
-    if (in_.size() - pos_ < n) throw Error("accumulator state: truncated");
-    std::string s = in_.substr(pos_, n);
-    pos_ += n;
-    return s;
-  }
-  // The format version, 1 or 2, from the tag.
-  int Version() {
-    char t[4];
-    for (char& c : t) c = Get<char>();
-    if (std::memcmp(t, kAccumulatorTag, 4) == 0) return 2;
-    if (std::memcmp(t, kAccumulatorTagV1, 4) == 0) return 1;
-    throw Error("accumulator state: wrong tag (not an accumulator state, or another version)");
-  }
-  bool done() const { return pos_ == in_.size(); }
-
- private:
-  const std::string& in_;
-  size_t pos_ = 0;
-};
-
-void CheckFinite(const RegressionStats& r) {
-  bool ok = std::isfinite(r.yty()) && std::isfinite(r.n()) && r.n() >= 0;
-  for (double v : r.xtx()) ok = ok && std::isfinite(v);
-  for (double v : r.xty()) ok = ok && std::isfinite(v);
-  if (!ok) throw Error("accumulator state: non-finite or negative steady-state statistics");
+void ToFloats(const SegmentSample& s, float* out) {
+  out[0] = s.steer_rad;
+  out[1] = s.speed_mps;
+  out[2] = s.lat_accel_mps2;
+  out[3] = s.yaw_rate_radps;
+  out[4] = s.long_accel_mps2;
 }
 
-void CheckFinite(const Histogram2d& h) {
-  for (double v : h.counts) {
-    if (!std::isfinite(v) || v < 0) throw Error("accumulator state: non-finite or negative coverage count");
-  }
+SegmentSample FromFloats(const float* f) { return SegmentSample{f[0], f[1], f[2], f[3], f[4]}; }
+
+nlohmann::json SegmentJson(const Segment& seg) {
+  std::vector<float> rows(seg.samples.size() * kSampleFloats);
+  for (size_t i = 0; i < seg.samples.size(); ++i) ToFloats(seg.samples[i], &rows[i * kSampleFloats]);
+  return {{"t0_ns", seg.t0_ns}, {"drive", seg.drive_id}, {"dt_s", seg.dt_s}, {"has_yaw_rate", seg.has_yaw_rate},
+          {"has_long_accel", seg.has_long_accel}, {"samples", FloatsToBinary(rows.data(), rows.size())}};
 }
 
-void PutSegment(ByteWriter& w, const Segment& seg) {
-  w.Put(seg.t0_ns);
-  w.Put(seg.drive_id);
-  w.Put(seg.dt_s);
-  w.Put<uint8_t>(seg.has_yaw_rate);
-  w.Put<uint8_t>(seg.has_long_accel);
-  w.Put<uint64_t>(seg.samples.size());
-  w.str().append(reinterpret_cast<const char*>(seg.samples.data()), seg.samples.size() * sizeof(SegmentSample));
-}
-
-std::shared_ptr<const Segment> GetSegment(ByteReader& r) {
+Segment SegmentFromJson(const JsonIn& in) {
   Segment seg;
-  seg.t0_ns = r.Get<int64_t>();
-  seg.drive_id = r.Get<int64_t>();
-  seg.dt_s = r.Finite();
-  seg.has_yaw_rate = r.Get<uint8_t>() != 0;
-  seg.has_long_accel = r.Get<uint8_t>() != 0;
-  seg.samples.resize(r.Count());
-  if (!(seg.dt_s > 0) || seg.drive_id < 0) throw Error("accumulator state: implausible segment");
-  for (SegmentSample& s : seg.samples) {
-    s = r.Get<SegmentSample>();
-    for (float v : {s.steer_rad, s.speed_mps, s.lat_accel_mps2, s.yaw_rate_radps, s.long_accel_mps2}) {
-      if (!std::isfinite(v)) throw Error("accumulator state: non-finite segment sample");
-    }
+  seg.t0_ns = in.Int64("t0_ns");
+  seg.drive_id = in.Int64("drive");
+  seg.dt_s = in.Finite("dt_s");
+  seg.has_yaw_rate = in.Bool("has_yaw_rate");
+  seg.has_long_accel = in.Bool("has_long_accel");
+  if (!(seg.dt_s > 0) || seg.drive_id < 0) in.Fail("implausible segment (dt_s <= 0 or negative drive)");
+  const JsonIn samples = in.At("samples");
+  const std::vector<float> f = samples.Floats(kSampleFloats, kMaxSegmentRows);
+  for (float v : f) {
+    if (!std::isfinite(v)) samples.Fail("non-finite sample");
   }
-  return std::make_shared<const Segment>(std::move(seg));
+  seg.samples.resize(f.size() / kSampleFloats);
+  for (size_t i = 0; i < seg.samples.size(); ++i) seg.samples[i] = FromFloats(&f[i * kSampleFloats]);
+  return seg;
+}
+
+nlohmann::json SegmentList(const auto& segments) {
+  nlohmann::json a = nlohmann::json::array();
+  for (const auto& seg : segments) a.push_back(SegmentJson(*seg));
+  return a;
 }
 
 }  // namespace
 
-std::string Accumulator::Serialize() const {
-  const Accumulator& done = *this;
-  ByteWriter w;
-  for (char c : kAccumulatorTag) w.Put(c);
-  w.Put(done.gated_s_);
-  w.Put<uint64_t>(done.counters_.short_drive_samples);
-  w.Put<uint64_t>(done.counters_.short_segment_samples);
-  w.Put<uint64_t>(done.counters_.evicted_segments);
-  w.PutBlob(done.steady_.Serialize());
-  w.PutBlob(done.coverage_.Serialize());
-  w.Put<uint64_t>(done.drives_.size());
-  for (const DriveSummary& d : done.drives_) {
-    w.Put(d.drive_id);
-    w.Put(d.start_ns);
-    w.Put(d.end_ns);
-    w.Put(d.distance_km);
-    w.Put(d.gated_s);
-    w.Put<uint8_t>(d.used);
+nlohmann::json Accumulator::ToJson() const {
+  nlohmann::json j;
+  j["gated_s"] = gated_s_;
+  j["counters"] = {{"short_drive_samples", counters_.short_drive_samples},
+                   {"short_segment_samples", counters_.short_segment_samples},
+                   {"evicted_segments", counters_.evicted_segments}};
+  j["steady_state"] = steady_.ToJson();
+  j["coverage"] = coverage_.ToJson();
+  j["drives"] = nlohmann::json::array();
+  for (const DriveSummary& d : drives_) {
+    j["drives"].push_back({{"drive", d.drive_id}, {"start_ns", d.start_ns}, {"end_ns", d.end_ns},
+                           {"distance_km", d.distance_km}, {"gated_s", d.gated_s}, {"used", d.used}});
   }
-  w.Put<uint64_t>(done.window_.size());
-  for (const auto& seg : done.window_) PutSegment(w, *seg);
-  // The drive in progress: open, used, and what it holds back while short of min_drive_km.
-  const bool open = done.drive_open_ && !done.drives_.empty();
-  w.Put<uint8_t>(open);
-  if (open) {
-    w.Put<uint8_t>(done.drive_used_);
-    w.Put(done.pending_gated_s_);
-    w.Put<uint64_t>(done.pending_samples_);
-    w.PutBlob(done.pending_steady_.Serialize());
-    w.PutBlob(done.pending_coverage_.Serialize());
-    w.Put<uint64_t>(done.pending_segments_.size());
-    for (const auto& seg : done.pending_segments_) PutSegment(w, *seg);
-    // Its open segment, with the decimation's partial sum, so that a restart can go on with it.
-    w.Put<uint8_t>(done.segment_open_);
-    if (done.segment_open_) {
-      PutSegment(w, done.current_);
-      w.Put<int32_t>(done.summed_);
-      w.Put(done.sum_);
-      w.Put(done.sum_t0_ns_);
-    }
+  j["window"] = SegmentList(window_);
+  // The drive in progress: used, and what it holds back while short of min_drive_km; its open
+  // segment with the decimation's partial sum, so that a restart can go on with it.
+  const bool open = drive_open_ && !drives_.empty();
+  if (!open) {
+    j["open_drive"] = nullptr;
+    return j;
   }
-  return std::move(w.str());
+  nlohmann::json o;
+  o["used"] = drive_used_;
+  o["pending_gated_s"] = pending_gated_s_;
+  o["pending_samples"] = pending_samples_;
+  o["pending_steady_state"] = pending_steady_.ToJson();
+  o["pending_coverage"] = pending_coverage_.ToJson();
+  o["pending_segments"] = SegmentList(pending_segments_);
+  if (segment_open_) {
+    float sum[kSampleFloats];
+    ToFloats(sum_, sum);
+    o["open_segment"] = {{"segment", SegmentJson(current_)}, {"summed", summed_},
+                         {"sum", FloatsToBinary(sum, kSampleFloats)}, {"sum_t0_ns", sum_t0_ns_}};
+  } else {
+    o["open_segment"] = nullptr;
+  }
+  j["open_drive"] = std::move(o);
+  return j;
 }
 
-void Accumulator::Restore(const std::string& bytes) {
-  ByteReader r(bytes);
-  const int version = r.Version();
-  const double gated_s = r.Finite();
-  if (gated_s < 0) throw Error("accumulator state: negative gated time");
+void Accumulator::FromJson(const JsonIn& in) {
+  const double gated_s = in.Finite("gated_s");
+  if (gated_s < 0) in.At("gated_s").Fail("negative gated time");
   AccumulatorCounters counters;
-  counters.short_drive_samples = r.Get<uint64_t>();
-  counters.short_segment_samples = r.Get<uint64_t>();
-  counters.evicted_segments = r.Get<uint64_t>();
-  SteadyStateStats steady = SteadyStateStats::Deserialize(r.Blob());
-  CheckFinite(steady.without_yaw());
-  CheckFinite(steady.with_yaw());
-  Coverage coverage = Coverage::Deserialize(r.Blob());
-  CheckFinite(coverage.gg());
-  CheckFinite(coverage.v_ay());
+  const JsonIn c = in.At("counters");
+  counters.short_drive_samples = c.UInt64("short_drive_samples");
+  counters.short_segment_samples = c.UInt64("short_segment_samples");
+  counters.evicted_segments = c.UInt64("evicted_segments");
+  SteadyStateStats steady = SteadyStateStats::FromJson(in.At("steady_state"));
+  Coverage coverage = Coverage::FromJson(in.At("coverage"));
 
-  std::vector<DriveSummary> drives(r.Count());
+  const JsonIn jd = in.At("drives");
+  std::vector<DriveSummary> drives(jd.Size(kMaxListed));
   int64_t next_drive_id = 0;
-  for (DriveSummary& d : drives) {
-    d.drive_id = r.Get<int64_t>();
-    d.start_ns = r.Get<int64_t>();
-    d.end_ns = r.Get<int64_t>();
-    d.distance_km = r.Finite();
-    d.gated_s = r.Finite();
-    d.used = r.Get<uint8_t>() != 0;
-    if (d.drive_id < 0 || d.end_ns < d.start_ns || d.distance_km < 0 || d.gated_s < 0) {
-      throw Error("accumulator state: implausible drive summary");
-    }
+  for (size_t i = 0; i < drives.size(); ++i) {
+    const JsonIn e = jd.At(i);
+    DriveSummary& d = drives[i];
+    d.drive_id = e.Int64("drive");
+    d.start_ns = e.Int64("start_ns");
+    d.end_ns = e.Int64("end_ns");
+    d.distance_km = e.Finite("distance_km");
+    d.gated_s = e.Finite("gated_s");
+    d.used = e.Bool("used");
+    if (d.drive_id < 0 || d.end_ns < d.start_ns || d.distance_km < 0 || d.gated_s < 0) e.Fail("implausible drive summary");
     next_drive_id = std::max(next_drive_id, d.drive_id + 1);
   }
   std::deque<std::shared_ptr<const Segment>> window;
-  const size_t n_segments = r.Count();
+  const JsonIn jw = in.At("window");
+  const size_t n_segments = jw.Size(kMaxListed);
   for (size_t i = 0; i < n_segments; ++i) {
-    window.push_back(GetSegment(r));
+    window.push_back(std::make_shared<const Segment>(SegmentFromJson(jw.At(i))));
     next_drive_id = std::max(next_drive_id, window.back()->drive_id + 1);
   }
   bool open = false, used = false;
@@ -357,46 +287,43 @@ void Accumulator::Restore(const std::string& bytes) {
   std::vector<std::shared_ptr<const Segment>> pending_segments;
   bool segment_open = false;
   Segment current;
-  int32_t summed = 0;
+  int64_t summed = 0;
   SegmentSample sum{};
   int64_t sum_t0_ns = 0;
-  if (version >= 2) {
-    open = r.Get<uint8_t>() != 0;
-    if (open) {
-      if (drives.empty()) throw Error("accumulator state: an open drive without its summary");
-      used = r.Get<uint8_t>() != 0;
-      pending_gated_s = r.Finite();
-      pending_samples = r.Get<uint64_t>();
-      if (pending_gated_s < 0 || pending_samples > kMaxCount) throw Error("accumulator state: implausible open drive");
-      pending_steady = SteadyStateStats::Deserialize(r.Blob());
-      CheckFinite(pending_steady.without_yaw());
-      CheckFinite(pending_steady.with_yaw());
-      pending_coverage = Coverage::Deserialize(r.Blob());
-      CheckFinite(pending_coverage.gg());
-      CheckFinite(pending_coverage.v_ay());
-      const size_t n_pending = r.Count();
-      for (size_t i = 0; i < n_pending; ++i) {
-        pending_segments.push_back(GetSegment(r));
-        if (pending_segments.back()->drive_id != drives.back().drive_id)
-          throw Error("accumulator state: held-back segment of another drive");
+  const JsonIn o = in.At("open_drive");
+  if (!o.raw().is_null()) {
+    open = true;
+    if (drives.empty()) o.Fail("an open drive without its summary");
+    used = o.Bool("used");
+    pending_gated_s = o.Finite("pending_gated_s");
+    pending_samples = o.UInt64("pending_samples");
+    if (pending_gated_s < 0) o.Fail("negative pending_gated_s");
+    pending_steady = SteadyStateStats::FromJson(o.At("pending_steady_state"));
+    pending_coverage = Coverage::FromJson(o.At("pending_coverage"));
+    const JsonIn jp = o.At("pending_segments");
+    const size_t n_pending = jp.Size(kMaxListed);
+    for (size_t i = 0; i < n_pending; ++i) {
+      pending_segments.push_back(std::make_shared<const Segment>(SegmentFromJson(jp.At(i))));
+      if (pending_segments.back()->drive_id != drives.back().drive_id) jp.At(i).Fail("held-back segment of another drive");
+    }
+    if (used && (pending_samples != 0 || !pending_segments.empty())) o.Fail("a used drive with held-back data");
+    const JsonIn os = o.At("open_segment");
+    if (!os.raw().is_null()) {
+      segment_open = true;
+      current = SegmentFromJson(os.At("segment"));
+      summed = os.Int64("summed");
+      const JsonIn js = os.At("sum");
+      const std::vector<float> f = js.Floats(kSampleFloats, 1);
+      if (f.size() != kSampleFloats) js.Fail("needs one row of 5 floats");
+      for (float v : f) {
+        if (!std::isfinite(v)) js.Fail("non-finite partial sum");
       }
-      if (used && (pending_samples != 0 || !pending_segments.empty()))
-        throw Error("accumulator state: a used drive with held-back data");
-      segment_open = r.Get<uint8_t>() != 0;
-      if (segment_open) {
-        current = *GetSegment(r);
-        summed = r.Get<int32_t>();
-        sum = r.Get<SegmentSample>();
-        sum_t0_ns = r.Get<int64_t>();
-        if (current.drive_id != drives.back().drive_id || summed < 0 || summed >= decimation_)
-          throw Error("accumulator state: implausible open segment");
-        for (float v : {sum.steer_rad, sum.speed_mps, sum.lat_accel_mps2, sum.yaw_rate_radps, sum.long_accel_mps2}) {
-          if (!std::isfinite(v)) throw Error("accumulator state: non-finite open segment");
-        }
-      }
+      sum = FromFloats(f.data());
+      sum_t0_ns = os.Int64("sum_t0_ns");
+      if (current.drive_id != drives.back().drive_id || summed < 0 || summed >= decimation_)
+        os.Fail("implausible open segment (another drive, or a partial sum outside the decimation)");
     }
   }
-  if (!r.done()) throw Error("accumulator state: trailing bytes");
 
   // Everything checked: replace the learned state, forget anything open.
   steady_ = std::move(steady);
@@ -414,7 +341,7 @@ void Accumulator::Restore(const std::string& bytes) {
   drive_used_ = open && used;
   segment_open_ = segment_open;
   current_ = std::move(current);
-  summed_ = segment_open ? summed : 0;
+  summed_ = segment_open ? static_cast<int>(summed) : 0;
   sum_ = sum;
   sum_t0_ns_ = sum_t0_ns;
   skip_through_ns_ = std::numeric_limits<int64_t>::min();

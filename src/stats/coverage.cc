@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
 #include "ndsid/common/error.h"
 
@@ -72,31 +71,38 @@ double Coverage::ShareBelow(double limit) const {
   return all > 0 ? below / all : 0.0;
 }
 
-std::string Coverage::Serialize() const {
-  std::ostringstream os;
-  os.precision(17);
-  for (const Histogram2d* h : {&gg_, &v_ay_}) {
-    os << h->counts.size();
-    for (double c : h->counts) os << ' ' << c;
-    os << ' ';
-  }
-  return os.str();
-}
+namespace {
 
-Coverage Coverage::Deserialize(const std::string& text) {
-  Coverage c;
-  std::istringstream is(text);
-  for (Histogram2d* h : {&c.gg_, &c.v_ay_}) {
-    size_t n = 0;
-    is >> n;
-    if (is.fail() || n != h->counts.size()) throw Error("coverage: histogram size mismatch");
-    for (double& v : h->counts) {
-      is >> v;
-      if (!is.fail() && !(v >= 0)) throw Error("coverage: negative histogram count");
+// Counts of whole samples as integers (one to five bytes each in CBOR instead of a float's five
+// or nine: most bins are 0), weighted ones as they are; both read back exactly.
+nlohmann::json CountsJson(const std::vector<double>& counts) {
+  nlohmann::json a = nlohmann::json::array();
+  for (double c : counts) {
+    if (c >= 0 && c < 9007199254740992.0 && c == std::floor(c)) {
+      a.push_back(static_cast<uint64_t>(c));
+    } else {
+      a.push_back(c);
     }
   }
-  if (is.fail()) throw Error("coverage: truncated histogram data");
-  if (!(is >> std::ws).eof()) throw Error("coverage: trailing data after the histograms");
+  return a;
+}
+
+}  // namespace
+
+nlohmann::json Coverage::ToJson() const { return {{"gg", CountsJson(gg_.counts)}, {"v_ay", CountsJson(v_ay_.counts)}}; }
+
+Coverage Coverage::FromJson(const JsonIn& in) {
+  Coverage c;
+  for (auto [key, h] : {std::pair{"gg", &c.gg_}, std::pair{"v_ay", &c.v_ay_}}) {
+    const JsonIn counts = in.At(key);
+    if (counts.Size(h->counts.size()) != h->counts.size())
+      counts.Fail("needs " + std::to_string(h->counts.size()) + " bin counts");
+    for (size_t i = 0; i < h->counts.size(); ++i) {
+      const double v = counts.At(i).Finite();
+      if (v < 0) counts.At(i).Fail("negative bin count");
+      h->counts[i] = v;
+    }
+  }
   return c;
 }
 

@@ -1,7 +1,6 @@
 #include "ndsid/stats/regression_stats.h"
 
 #include <cmath>
-#include <sstream>
 #include <string>
 
 #include "ndsid/common/error.h"
@@ -76,30 +75,20 @@ LsSolution RegressionStats::Solve() const {
   return s;
 }
 
-std::string RegressionStats::Serialize() const {
-  std::ostringstream os;
-  os.precision(17);
-  for (double v : xtx_) os << v << ' ';
-  for (double v : xty_) os << v << ' ';
-  os << yty_ << ' ' << n_;
-  return os.str();
+nlohmann::json RegressionStats::ToJson() const {
+  return {{"xtx", xtx_}, {"xty", xty_}, {"yty", yty_}, {"n", n_}};
 }
 
-RegressionStats RegressionStats::Deserialize(const std::string& text) {
-  std::istringstream is(text);
+RegressionStats RegressionStats::FromJson(const JsonIn& in) {
   RegressionStats r;
-  std::array<double*, 14> fields{};
-  for (int i = 0; i < 9; ++i) fields[i] = &r.xtx_[i];
-  for (int i = 0; i < 3; ++i) fields[9 + i] = &r.xty_[i];
-  fields[12] = &r.yty_;
-  fields[13] = &r.n_;
-  for (size_t i = 0; i < fields.size(); ++i) {
-    if (!(is >> *fields[i])) {
-      throw Error("regression statistics: number " + std::to_string(i + 1) + " of 14 missing or not a finite number in '" +
-                  text + "'");
-    }
-  }
-  if (!(is >> std::ws).eof()) throw Error("regression statistics: trailing data after 14 numbers in '" + text + "'");
+  const JsonIn xtx = in.At("xtx"), xty = in.At("xty");
+  if (xtx.Size(9) != 9) xtx.Fail("needs 9 numbers (X'X row-major)");
+  if (xty.Size(3) != 3) xty.Fail("needs 3 numbers (X'y)");
+  for (size_t i = 0; i < 9; ++i) r.xtx_[i] = xtx.At(i).Finite();
+  for (size_t i = 0; i < 3; ++i) r.xty_[i] = xty.At(i).Finite();
+  r.yty_ = in.Finite("yty");
+  r.n_ = in.Finite("n");
+  if (r.n_ < 0) in.At("n").Fail("negative");
   return r;
 }
 

@@ -48,14 +48,14 @@ SteadyStateEstimate SteadyStateStats::Estimate(double l, bool use_yaw_rate) cons
   return e;
 }
 
-std::string SteadyStateStats::Serialize() const { return without_yaw_.Serialize() + " | " + with_yaw_.Serialize(); }
+nlohmann::json SteadyStateStats::ToJson() const {
+  return {{"without_yaw", without_yaw_.ToJson()}, {"with_yaw", with_yaw_.ToJson()}};
+}
 
-SteadyStateStats SteadyStateStats::Deserialize(const std::string& text) {
-  const auto bar = text.find('|');
-  if (bar == std::string::npos) throw Error("steady-state statistics: missing '|' separator");
+SteadyStateStats SteadyStateStats::FromJson(const JsonIn& in) {
   SteadyStateStats s;
-  s.without_yaw_ = RegressionStats::Deserialize(text.substr(0, bar));
-  s.with_yaw_ = RegressionStats::Deserialize(text.substr(bar + 1));
+  s.without_yaw_ = RegressionStats::FromJson(in.At("without_yaw"));
+  s.with_yaw_ = RegressionStats::FromJson(in.At("with_yaw"));
   return s;
 }
 

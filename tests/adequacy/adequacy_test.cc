@@ -59,37 +59,48 @@ TEST(AdequacyTracker, DriftingEgNeverAdequate) {
   }
 }
 
-TEST(AdequacyTracker, SerializeRoundTripKeepsHistory) {
+TEST(AdequacyTracker, RoundTripKeepsHistory) {
   Tracker t(Cfg());
   for (int k = 1; k <= 12; ++k) t.Update(0.5 * k, 0.003, 1e-6, SomeCoverage(500 * k));
   Tracker u(Cfg());
-  u.Deserialize(t.Serialize());
+  u.FromJson(JsonIn(ParseCbor(ToCbor(t.ToJson()), "t"), "adequacy"));
   ASSERT_EQ(u.history().size(), t.history().size());
   EXPECT_DOUBLE_EQ(u.history().back().eg, 0.003);
   const Report a = t.Update(6.5, 0.003, 1e-6, SomeCoverage(6500));
   const Report b = u.Update(6.5, 0.003, 1e-6, SomeCoverage(6500));
   EXPECT_EQ(a.state, b.state);
   EXPECT_DOUBLE_EQ(a.hours_under_tolerance, b.hours_under_tolerance);
-  EXPECT_THROW(u.Deserialize("garbage"), Error);
+  EXPECT_THROW(u.FromJson(JsonIn(nlohmann::json("garbage"), "adequacy")), CodecError);
 }
 
-// Catches: a state file claiming a 10-million-point history making the loader allocate it all
-// up front (320 MB before a byte is checked): the claim is refused with the limit named, and a
-// claim within the limit is only as large as the points really present.
-TEST(AdequacyTracker, DeserializeBoundsTheHistory) {
+// Catches: a state file claiming a 10-million-point history making the loader allocate it
+// (a CBOR array header claims it in 5 bytes): the claim costs nothing until the points are
+// there, a history beyond the limit is refused with the limit named, and a rejected state
+// leaves the tracker untouched.
+TEST(AdequacyTracker, FromJsonBoundsTheHistory) {
   Tracker t(Cfg());
+  const nlohmann::json point = {{"gated_hours", 1.0}, {"eg", 0.003}, {"eg_se", 1e-6}, {"kl", -1.0}};
+  // {"history": [10 000 000 points claimed, 1 there] ...}: the CBOR ends early.
+  std::string claim = ToCbor(nlohmann::json{{"history", nlohmann::json::array({point})}});
+  const std::string one_point_array = "\x81";
+  const size_t at = claim.find(one_point_array);
+  ASSERT_NE(at, std::string::npos);
+  claim.replace(at, 1, std::string("\x9a\x00\x98\x96\x80", 5));  // array(10 000 000)
   try {
-    t.Deserialize("10000000\n1 0.003 1e-6 -1\n");
+    ParseCbor(claim, "adequacy state");
     FAIL() << "accepted";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("history of 10000000 points, more than the limit of 100000"), std::string::npos)
-        << e.what();
+  } catch (const CodecError& e) {
+    EXPECT_NE(std::string(e.what()).find("adequacy state"), std::string::npos) << e.what();
   }
+  nlohmann::json many = Tracker(Cfg()).ToJson();
+  many["history"] = nlohmann::json::array();
+  for (size_t i = 0; i <= Tracker::kMaxHistoryPoints; ++i) many["history"].push_back(point);
   try {
-    t.Deserialize("99999\n1 0.003 1e-6 -1\n2 0.003 1e-6 -1\n");
+    t.FromJson(JsonIn(many, "state.adequacy"));
     FAIL() << "accepted";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("history truncated at point 2 of 99999"), std::string::npos) << e.what();
+  } catch (const CodecError& e) {
+    EXPECT_NE(std::string(e.what()).find("state.adequacy.history: 100001 entries, at most 100000"), std::string::npos)
+        << e.what();
   }
   EXPECT_TRUE(t.history().empty()) << "a rejected state leaves the tracker untouched";
 }

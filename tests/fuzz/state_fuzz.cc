@@ -1,8 +1,9 @@
 // Fuzz target: the daemon's learned-state loader, DecodeState then RestoreState into a pipeline
-// of the example vehicle, as StateStore::Load and the daemon's start do. Odd first byte: the rest
-// is a payload and the harness writes a valid header with its checksum (so the sections, the
-// accumulator and the adequacy history are reached); even: the rest is the whole file. Only
-// StateFileError / ndsid::Error may come out, and no input may exhaust memory.
+// of the example vehicle, as StateStore::Load and the daemon's start do. First byte % 4 == 1: the
+// rest is a format 2 payload (CBOR) and the harness writes a valid header with its checksum, so
+// the document readers are reached; == 3: the same with a format 1 header (the migration of the
+// old sections, docs/state-format.md); even: the rest is the whole file. Only StateFileError /
+// ndsid::Error may come out, and no input may exhaust the stack or the memory.
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -29,10 +30,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::string bytes(reinterpret_cast<const char*>(data + 1), size - 1);
   const std::string& vehicle = f->config.vehicle.name;
   if (data[0] % 2 == 1) {
+    const int version = data[0] % 4 == 3 ? 1 : ndsid::service::kStateFormatVersion;
     char checksum[17];
     std::snprintf(checksum, sizeof checksum, "%016llx",
                   static_cast<unsigned long long>(ndsid::service::Fnv1a64(bytes)));
-    bytes = "NDSID-STATE " + std::to_string(ndsid::service::kStateFormatVersion) + "\nvehicle " + vehicle +
+    bytes = "NDSID-STATE " + std::to_string(version) + "\nvehicle " + vehicle +
             "\npayload_bytes " + std::to_string(bytes.size()) + "\npayload_fnv1a64 " + checksum + "\n\n" + bytes;
   }
   try {

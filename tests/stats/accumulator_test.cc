@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -14,6 +15,12 @@
 
 namespace ndsid::stats {
 namespace {
+
+// The learned state as the state file carries it (CBOR), and back.
+std::string Bytes(const Accumulator& a) { return ToCbor(a.ToJson()); }
+void RestoreBytes(Accumulator& a, const std::string& bytes) {
+  a.FromJson(JsonIn(ParseCbor(bytes, "test state"), "state.accumulator"));
+}
 
 constexpr double kSyncHz = 100.0;
 
@@ -187,12 +194,12 @@ TEST(AccumulatorState, RoundTripIsByteIdentical) {
   const config::Config config = SmallConfig(20);
   for (int which = 0; which < 2; ++which) {
     Accumulator a = which == 0 ? Accumulator(config, kSyncHz) : Learned(config);
-    const std::string bytes = a.Serialize();
-    EXPECT_EQ(a.Serialize(), bytes);  // Serialize() does not change the object
+    const std::string bytes = Bytes(a);
+    EXPECT_EQ(Bytes(a), bytes);  // ToJson() does not change the object
     Accumulator b(config, kSyncHz);
-    b.Restore(bytes);
-    EXPECT_EQ(b.Serialize(), bytes);
-    EXPECT_EQ(b.steady_state(), SteadyStateStats::Deserialize(a.steady_state().Serialize()));
+    RestoreBytes(b, bytes);
+    EXPECT_EQ(Bytes(b), bytes);
+    EXPECT_EQ(b.steady_state(), SteadyStateStats::FromJson(JsonIn(a.steady_state().ToJson(), "t")));
     EXPECT_EQ(b.window().size(), which == 0 ? 0u : 1u);  // the second drive's segment is still open
   }
 }
@@ -201,47 +208,56 @@ TEST(AccumulatorState, RoundTripIsByteIdentical) {
 // on it; and a failed restore that leaves the accumulator half-replaced.
 TEST(AccumulatorState, EveryTruncationIsRejectedAndLeavesTheObjectUnchanged) {
   const config::Config config = SmallConfig(20);
-  const std::string bytes = Learned(config).Serialize();
+  const std::string bytes = Bytes(Learned(config));
   Accumulator target = Learned(config);
-  const std::string before = target.Serialize();
+  const std::string before = Bytes(target);
   // Every length through the header, blobs, drives and first segment header; then every
   // 997th byte through the segment samples, and the last byte missing.
   for (size_t len = 0; len < bytes.size(); len += (len < 600 ? 1 : 997)) {
-    EXPECT_THROW(target.Restore(bytes.substr(0, len)), Error) << len;
+    EXPECT_THROW(RestoreBytes(target, bytes.substr(0, len)), Error) << len;
   }
-  EXPECT_THROW(target.Restore(bytes.substr(0, bytes.size() - 1)), Error);
-  EXPECT_THROW(target.Restore(bytes + '\0'), Error);  // trailing byte
-  EXPECT_EQ(target.Serialize(), before);
+  EXPECT_THROW(RestoreBytes(target, bytes.substr(0, bytes.size() - 1)), Error);
+  EXPECT_THROW(RestoreBytes(target, bytes + '\0'), Error);  // trailing byte
+  EXPECT_EQ(Bytes(target), before);
 }
 
-// Catches: corrupted values (NaN, negative counts, a wrong tag) restored instead of rejected.
+// Catches: corrupted values (NaN, negative values, a wrong type, a non-finite sample, an open
+// drive without its parts) restored instead of rejected, with the path of the bad value named.
 TEST(AccumulatorState, CorruptedValuesAreRejected) {
   const config::Config config = SmallConfig(20);
-  const std::string bytes = Learned(config).Serialize();
-  Accumulator target(config, kSyncHz);
-  auto with_double_at = [&](size_t pos, double v) {
-    std::string b = bytes;
-    std::memcpy(b.data() + pos, &v, sizeof v);
-    return b;
-  };
-  EXPECT_THROW(target.Restore(with_double_at(4, std::numeric_limits<double>::quiet_NaN())), Error);  // gated_s
-  EXPECT_THROW(target.Restore(with_double_at(4, -1.0)), Error);
-  std::string tag = bytes;
-  tag[3] = '9';
-  EXPECT_THROW(target.Restore(tag), Error);
-  // The last segment sample's last float (long acceleration) set to NaN; the drive ended, so
-  // the state ends with that segment and the open-drive flag 0.
   Accumulator finished = Learned(config);
   finished.Finish();
-  std::string last = finished.Serialize();
-  ASSERT_EQ(last.back(), '\0');
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  std::memcpy(last.data() + last.size() - 1 - sizeof(float), &nan, sizeof nan);
-  EXPECT_THROW(target.Restore(last), Error);
-  // An open drive flag that is neither 0 nor followed by its section.
-  std::string open = finished.Serialize();
-  open.back() = '\1';
-  EXPECT_THROW(target.Restore(open), Error);
+  const nlohmann::json good = finished.ToJson();
+  Accumulator target(config, kSyncHz);
+  auto rejects = [&](const std::function<void(nlohmann::json&)>& edit, const std::string& path) {
+    nlohmann::json j = good;
+    edit(j);
+    try {
+      RestoreBytes(target, ToCbor(j));
+      ADD_FAILURE() << "accepted a state with a bad " << path;
+    } catch (const CodecError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+  };
+  rejects([](nlohmann::json& j) { j["gated_s"] = std::numeric_limits<double>::quiet_NaN(); }, "state.accumulator.gated_s");
+  rejects([](nlohmann::json& j) { j["gated_s"] = -1.0; }, "state.accumulator.gated_s");
+  rejects([](nlohmann::json& j) { j["gated_s"] = "1"; }, "state.accumulator.gated_s");
+  rejects([](nlohmann::json& j) { j["counters"]["evicted_segments"] = -3; }, "state.accumulator.counters.evicted_segments");
+  rejects([](nlohmann::json& j) { j["drives"][0]["end_ns"] = j["drives"][0]["start_ns"].get<int64_t>() - 1; }, "state.accumulator.drives[0]");
+  rejects([](nlohmann::json& j) { j["steady_state"]["with_yaw"]["xtx"][4] = std::numeric_limits<double>::infinity(); },
+          "state.accumulator.steady_state.with_yaw.xtx[4]");
+  rejects([](nlohmann::json& j) { j["coverage"]["gg"].erase(0); }, "state.accumulator.coverage.gg");
+  rejects([](nlohmann::json& j) { j.erase("window"); }, "state.accumulator.window");
+  // The last segment sample's last float (long acceleration) set to NaN.
+  rejects([](nlohmann::json& j) {
+            auto& bytes = j["window"].back()["samples"].get_binary();
+            bytes[bytes.size() - 1] = 0x7f, bytes[bytes.size() - 2] = 0xc0;
+            bytes[bytes.size() - 3] = 0, bytes[bytes.size() - 4] = 0;
+          },
+          "state.accumulator.window[1].samples");
+  rejects([](nlohmann::json& j) { j["window"][0]["samples"].get_binary().pop_back(); }, "state.accumulator.window[0].samples");
+  // An open drive that is neither null nor carries its parts.
+  rejects([](nlohmann::json& j) { j["open_drive"] = nlohmann::json::object(); }, "state.accumulator.open_drive.used");
   EXPECT_TRUE(target.window().empty());
 }
 
@@ -275,7 +291,7 @@ TEST(AccumulatorState, TheDriveInProgressGoesOnAfterARestart) {
     Fed before(config);
     FeedDrives(before.f, 0, restart_at);
     Fed after(config);
-    after.acc.Restore(before.acc.Serialize());
+    RestoreBytes(after.acc, Bytes(before.acc));
     after.f.t_ns = before.f.t_ns;  // the data go on; the gate starts again
     after.f.distance_m = 0;
     after.f.drive_id = -1;
@@ -320,7 +336,7 @@ TEST(AccumulatorState, AWarmedUpRestartContinuesTheOpenSegmentExactly) {
     Fed before(config);
     FeedDrives(before.f, 0, restart_at);
     Fed after(config);
-    after.acc.Restore(before.acc.Serialize());
+    RestoreBytes(after.acc, Bytes(before.acc));
     after.acc.SkipThrough(before.acc.last_sample_ns());
     constexpr int kWarmup = 100;  // 1 s at 100 Hz
     after.f.t_ns = before.f.t_ns - kWarmup * 10'000'000;
@@ -356,7 +372,7 @@ TEST(AccumulatorState, ARestartAfterAKeyCycleEndsTheOpenDrive) {
   Fed before(config);
   FeedDrives(before.f, 0, 3300);  // drive 1 short (60 m), held back
   Fed after(config);
-  after.acc.Restore(before.acc.Serialize());
+  RestoreBytes(after.acc, Bytes(before.acc));
   after.f.t_ns = before.f.t_ns + 120'000'000'000;  // two minutes later
   after.f.drive_id = -1;
   after.f.distance_m = 0;
@@ -370,28 +386,14 @@ TEST(AccumulatorState, ARestartAfterAKeyCycleEndsTheOpenDrive) {
   for (const auto& seg : after.acc.window()) EXPECT_NE(seg->drive_id, 1);
 }
 
-// Catches: a state written before the open drive was kept (tag ACC1) that no longer loads.
-TEST(AccumulatorState, StatesOfTheFirstFormatStillLoad) {
-  const config::Config config = SmallConfig(20);
-  Accumulator finished = Learned(config);
-  finished.Finish();
-  std::string v1 = finished.Serialize();
-  ASSERT_EQ(v1.back(), '\0');  // no open drive
-  v1.pop_back();
-  v1[3] = '1';
-  Accumulator b(config, kSyncHz);
-  b.Restore(v1);
-  EXPECT_EQ(b.Serialize(), finished.Serialize());
-}
-
 // Catches: a restored state learned with a longer window_h kept whole under a shorter one.
 TEST(AccumulatorState, RestoreUnderAShorterWindowEvicts) {
   const config::Config long_window = SmallConfig(20), short_window = SmallConfig(15.0 / 3600);
   Accumulator a = Learned(long_window);
   a.Finish();
-  const std::string bytes = a.Serialize();
+  const std::string bytes = Bytes(a);
   Accumulator b(short_window, kSyncHz);
-  b.Restore(bytes);
+  RestoreBytes(b, bytes);
   ASSERT_EQ(b.window().size(), 1u);  // 30 s + 32 s: the older 30 s segment is beyond 15 s
   EXPECT_EQ(b.counters().evicted_segments, 1u);
 }

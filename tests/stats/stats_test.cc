@@ -45,7 +45,7 @@ TEST(RegressionStats, TwoHalvesMergedEqualTheWhole) {
   EXPECT_NEAR(s.theta[1], -1.0, 0.02);
   EXPECT_NEAR(s.theta[2], 0.5, 0.02);
   EXPECT_NEAR(s.sigma, 0.1, 0.01);
-  const RegressionStats back = RegressionStats::Deserialize(whole.Serialize());
+  const RegressionStats back = RegressionStats::FromJson(JsonIn(ParseCbor(ToCbor(whole.ToJson()), "t"), "stats"));
   EXPECT_EQ(back, whole);
 }
 
@@ -76,7 +76,7 @@ TEST(SteadyStateStats, RecoversEgAndSteerRatioFromSteadyCornering) {
     EXPECT_NEAR(e.steer_ratio, 14.8, 1e-9);
     EXPECT_NEAR(e.steer_offset_rad, 0.01, 1e-9);
   }
-  const SteadyStateStats back = SteadyStateStats::Deserialize(st.Serialize());
+  const SteadyStateStats back = SteadyStateStats::FromJson(JsonIn(ParseCbor(ToCbor(st.ToJson()), "t"), "steady"));
   EXPECT_EQ(back, st);
 }
 
@@ -102,7 +102,7 @@ TEST(Coverage, KlIsZeroForSameShapeAndPositiveForNewRegions) {
   for (int i = 0; i < 1000; ++i) c.Add(SteadySample(30, 3.0, 0, 0, false));  // a new region
   EXPECT_GT(KlDivergence(c.gg(), b.gg()), 0.1);
   EXPECT_NEAR(a.ShareBelow(1.0), 1.0, 1e-12);
-  const Coverage back = Coverage::Deserialize(c.Serialize());
+  const Coverage back = Coverage::FromJson(JsonIn(ParseCbor(ToCbor(c.ToJson()), "t"), "coverage"));
   EXPECT_EQ(back.gg().counts, c.gg().counts);
 }
 

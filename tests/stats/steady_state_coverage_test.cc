@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <random>
 #include <string>
@@ -94,18 +95,22 @@ TEST(SteadyStateStats, MergedHalvesGiveTheSameEstimate) {
   }
 }
 
-// Catches: a steady-state text that loses one of its two regressions, or accepts a broken one.
-TEST(SteadyStateStats, RoundTripAndMalformedText) {
+// Catches: a steady-state document that loses one of its two regressions, or accepts a broken one.
+TEST(SteadyStateStats, RoundTripAndMalformedDocument) {
   SteadyStateStats st;
   for (int i = 0; i < 30; ++i) st.Add(Steady(10 + i, 0.1 * i - 1.5, 0.01 * i, (0.1 * i - 1.5) / (10 + i), i % 2 == 0));
-  EXPECT_EQ(SteadyStateStats::Deserialize(st.Serialize()), st);
-  EXPECT_EQ(SteadyStateStats::Deserialize(SteadyStateStats{}.Serialize()), SteadyStateStats{});
-  const std::string text = st.Serialize();
-  const size_t bar = text.find('|');
-  EXPECT_THROW(SteadyStateStats::Deserialize(text.substr(0, bar)), Error);          // no second half
-  EXPECT_THROW(SteadyStateStats::Deserialize(text.substr(0, bar + 1)), Error);      // empty second half
-  EXPECT_THROW(SteadyStateStats::Deserialize(text.substr(bar)), Error);             // empty first half
-  EXPECT_THROW(SteadyStateStats::Deserialize(text + " | " + text.substr(bar + 1)), Error);  // three parts
+  auto back = [](const nlohmann::json& j) { return SteadyStateStats::FromJson(JsonIn(ParseCbor(ToCbor(j), "t"), "steady")); };
+  EXPECT_EQ(back(st.ToJson()), st);
+  EXPECT_EQ(back(SteadyStateStats{}.ToJson()), SteadyStateStats{});
+  nlohmann::json j = st.ToJson();
+  j.erase("with_yaw");
+  EXPECT_THROW(back(j), CodecError);
+  j = st.ToJson();
+  j["without_yaw"] = nlohmann::json::object();
+  EXPECT_THROW(back(j), CodecError);
+  j = st.ToJson();
+  j["with_yaw"]["xty"][2] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(back(j), CodecError);
 }
 
 // Catches: bin arithmetic off by one at the edges, out-of-range values dropped instead of going
@@ -190,26 +195,29 @@ TEST(Coverage, MergeRoundTripAndShareBelowAgreeWithDirectCounts) {
   EXPECT_DOUBLE_EQ(whole.ShareBelow(2.0), static_cast<double>(below2) / n);
   EXPECT_EQ(Coverage{}.ShareBelow(1.0), 0.0);  // empty: 0, not NaN
 
-  const Coverage back = Coverage::Deserialize(whole.Serialize());
+  const Coverage back = Coverage::FromJson(JsonIn(ParseCbor(ToCbor(whole.ToJson()), "t"), "coverage"));
   EXPECT_EQ(back.gg().counts, whole.gg().counts);
   EXPECT_EQ(back.v_ay().counts, whole.v_ay().counts);
-  const Coverage empty_back = Coverage::Deserialize(Coverage{}.Serialize());
+  const Coverage empty_back = Coverage::FromJson(JsonIn(Coverage{}.ToJson(), "coverage"));
   EXPECT_EQ(empty_back.gg().total(), 0.0);
 }
 
-// Catches: a truncated, padded or corrupted coverage text restored as a different histogram.
-TEST(Coverage, MalformedTextIsRejected) {
+// Catches: a short, padded or corrupted coverage document restored as a different histogram.
+TEST(Coverage, MalformedDocumentIsRejected) {
   Coverage c;
   c.Add(Steady(20, 1, 0, 0, false));
-  const std::string text = c.Serialize();
-  EXPECT_THROW(Coverage::Deserialize(""), Error);
-  EXPECT_THROW(Coverage::Deserialize(text.substr(0, text.size() / 2)), Error);
-  EXPECT_THROW(Coverage::Deserialize(text.substr(0, text.rfind(' ', text.size() - 2))), Error);  // last count missing
-  EXPECT_THROW(Coverage::Deserialize("7 " + text.substr(text.find(' ') + 1)), Error);  // wrong size
-  EXPECT_THROW(Coverage::Deserialize(text + " 1"), Error);                              // trailing number
-  std::string negative = text;
-  negative.replace(negative.find(' ') + 1, 1, "-1");  // the first count "0" becomes "-1"
-  EXPECT_THROW(Coverage::Deserialize(negative), Error);
+  const nlohmann::json good = c.ToJson();
+  auto rejected = [&](const std::function<void(nlohmann::json&)>& edit) {
+    nlohmann::json j = good;
+    edit(j);
+    EXPECT_THROW(Coverage::FromJson(JsonIn(j, "coverage")), CodecError) << j.dump();
+  };
+  rejected([](nlohmann::json& j) { j = nlohmann::json::object(); });
+  rejected([](nlohmann::json& j) { j["gg"].erase(j["gg"].size() - 1); });   // last count missing
+  rejected([](nlohmann::json& j) { j["v_ay"].push_back(1.0); });            // one count too many
+  rejected([](nlohmann::json& j) { j["gg"][0] = -1.0; });                   // negative
+  rejected([](nlohmann::json& j) { j["v_ay"][3] = std::numeric_limits<double>::infinity(); });
+  rejected([](nlohmann::json& j) { j["gg"] = "0 0 0"; });
 }
 
 }  // namespace

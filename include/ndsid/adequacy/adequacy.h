@@ -42,12 +42,16 @@ class Tracker {
   // Re-derive the report without a new estimate (e.g. after an identification failure).
   const Report& last() const { return last_; }
   // The newest kMaxHistoryPoints estimates (one per identification: decades of driving at the
-  // default period); a state claiming more is rejected by Deserialize.
+  // default period); a state claiming more is rejected by FromJson.
   static constexpr size_t kMaxHistoryPoints = 100'000;
   const std::vector<EgPoint>& history() const { return history_; }
 
-  std::string Serialize() const;
-  void Deserialize(const std::string& text);  // throws ndsid::Error
+  static constexpr size_t kMaxSnapshots = 10'000;
+  // The learned state (history, coverage snapshots, state): docs/state-format.md. FromJson
+  // checks every value (finite, counts within the limits) and throws CodecError naming the
+  // path of the first bad one, leaving this tracker unchanged.
+  nlohmann::json ToJson() const;
+  void FromJson(const JsonIn& in);
 
  private:
   double EgAt(double hours, bool& found) const;

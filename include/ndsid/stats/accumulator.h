@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "ndsid/common/json_codec.h"
 #include "ndsid/config/config.h"
 #include "ndsid/gate/gate.h"
 #include "ndsid/stats/coverage.h"
@@ -50,19 +51,20 @@ class Accumulator {
   double window_hours() const;
   const AccumulatorCounters& counters() const { return counters_; }
 
-  // Persistence (the daemon's learned state). Serialize() writes the learned state without
-  // changing this object; binary, host byte order. The drive in progress is kept open in it,
-  // with its held-back data when it is still short of min_drive_km, and its open segment. Restore() replaces everything learned with a serialized state, checks every
-  // value (finite, in range) and throws ndsid::Error on a malformed or implausible state,
-  // leaving this object unchanged. After a restore the first drive the gate starts continues
-  // the restored open drive (same drive number, its distance and held-back data) when its first
-  // sample comes within gate.drive_gap_s of the drive's last one, as a drive would have gone on
-  // without the restart, and the open segment goes on when that sample is accepted and not a
-  // segment start; otherwise the open drive ends there (as Finish() would have ended it) and
-  // the new drives are numbered after the restored ones. States written before the open drive
-  // was kept (tag ACC1) still load.
-  std::string Serialize() const;
-  void Restore(const std::string& bytes);
+  // Persistence (the daemon's learned state, docs/state-format.md). ToJson() writes the learned
+  // state without changing this object: statistics, drives, the window (each segment's samples
+  // as little-endian float32 rows), and the drive in progress kept open, with its held-back
+  // data when it is still short of min_drive_km, and its open segment. FromJson() replaces
+  // everything learned with such a document, checks every value (finite, in range) and throws
+  // CodecError naming the path of the first bad one, leaving this object unchanged. After a
+  // restore the first drive the gate starts continues the restored open drive (same drive
+  // number, its distance and held-back data) when its first sample comes within
+  // gate.drive_gap_s of the drive's last one, as a drive would have gone on without the
+  // restart, and the open segment goes on when that sample is accepted and not a segment
+  // start; otherwise the open drive ends there (as Finish() would have ended it) and the new
+  // drives are numbered after the restored ones.
+  nlohmann::json ToJson() const;
+  void FromJson(const JsonIn& in);
   // Samples up to this time are ignored: a log re-read after a restart from a few seconds
   // before its resume point (to warm up the sync stage and the gate) gives them again.
   void SkipThrough(int64_t t_ns) { skip_through_ns_ = t_ns; }

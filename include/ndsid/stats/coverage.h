@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "ndsid/common/json_codec.h"
 #include "ndsid/gate/gate.h"
 
 namespace ndsid::stats {
@@ -40,8 +41,10 @@ class Coverage {
   // Share of accepted samples with |a_y| below each limit (1, 2, 4 m/s^2).
   double ShareBelow(double abs_ay_mps2) const;
 
-  std::string Serialize() const;
-  static Coverage Deserialize(const std::string& text);
+  // {"gg": [counts], "v_ay": [counts]} (the bins are fixed); FromJson checks the sizes and
+  // that every count is finite and >= 0.
+  nlohmann::json ToJson() const;
+  static Coverage FromJson(const JsonIn& in);
 
  private:
   Histogram2d gg_;

@@ -5,6 +5,8 @@
 #include <array>
 #include <string>
 
+#include "ndsid/common/json_codec.h"
+
 namespace ndsid::stats {
 
 struct LsSolution {
@@ -31,9 +33,10 @@ class RegressionStats {
   double yty() const { return yty_; }
   double n() const { return n_; }
 
-  std::string Serialize() const;  // one line of 14 numbers, 17 significant digits: exact round trip
-  // Throws ndsid::Error naming the missing or malformed number, or on trailing data.
-  static RegressionStats Deserialize(const std::string& text);
+  // {"xtx": [9], "xty": [3], "yty": x, "n": x}: exact round trip. FromJson throws CodecError
+  // naming the missing, malformed or non-finite number (or a negative n).
+  nlohmann::json ToJson() const;
+  static RegressionStats FromJson(const JsonIn& in);
 
   bool operator==(const RegressionStats&) const = default;
 

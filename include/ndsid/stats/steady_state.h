@@ -31,8 +31,8 @@ class SteadyStateStats {
 
   const RegressionStats& without_yaw() const { return without_yaw_; }
   const RegressionStats& with_yaw() const { return with_yaw_; }
-  std::string Serialize() const;
-  static SteadyStateStats Deserialize(const std::string& text);
+  nlohmann::json ToJson() const;  // {"without_yaw": ..., "with_yaw": ...}
+  static SteadyStateStats FromJson(const JsonIn& in);
   bool operator==(const SteadyStateStats&) const = default;
 
  private:

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_registry.h"
-#include "fit_json.h"
+#include "ndsid/identify/result_codec.h"
 #include "model_report.h"
 #include "ndsid/model/effect_library.h"
 #include "ndsid/common/atomic_file.h"
@@ -38,7 +38,7 @@ std::string Num(const char* fmt, double v) {
 nlohmann::json ModelJson(const FittedModel& m, const FitFigures& train, const FitFigures& val, double white,
                          double overall) {
   const auto& f = m.fit;
-  nlohmann::json j = FitToJson(f);
+  nlohmann::json j = identify::ResultToJson(f);
   j["label"] = m.label;
   j["effects"] = m.effects;
   j["fit_rmse_train_mps2"] = f.rmse_train_mps2;
