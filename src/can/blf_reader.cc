@@ -14,6 +14,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "ndsid/common/error.h"
@@ -294,7 +295,10 @@ bool BlfReader::Decode(const uint8_t* obj, uint32_t size, CanFrame& frame) noexc
         break;
       }
       // Bytes present in the object (the rest of a short object reads as zero, as CANoe does).
-      const uint32_t end = ext_offset != 0 && ext_offset >= header_size + 40u ? ext_offset - header_size : body_size;
+      // An extended-data offset past the object's end (a damaged or hostile file) ends the data at
+      // the object's end: nothing beyond the object is read.
+      const uint32_t end =
+          ext_offset != 0 && ext_offset >= header_size + 40u ? std::min<uint32_t>(ext_offset - header_size, body_size) : body_size;
       const uint32_t present = end > 40 ? end - 40 : 0;
       std::memcpy(frame.data.data(), body + 40, present < frame.len ? present : frame.len);
       break;

@@ -202,6 +202,27 @@ std::string AllBlfObjects() {
   return inner;
 }
 
+// Found by the blf fuzz target (heap-buffer-overflow, tests/fuzz/regressions/blf/crash-81bf...):
+// a CAN_FD_MESSAGE_64 whose extended-data offset points past the object made the reader copy the
+// bytes after it. Catches: data taken from beyond the object; the missing bytes read as zero.
+TEST(BlfReader, FdMessage64DataEndsAtTheObjectWhateverItsExtOffsetSays) {
+  TempDir dir;
+  // dlc 15, valid 64, flags EDL; ext_offset (body byte 37) 0xFF, far beyond the 48-byte body.
+  const std::string fd64 = Le<uint8_t>(1) + Le<uint8_t>(15) + Le<uint8_t>(64) + Le<uint8_t>(0) + Le<uint32_t>(0x100u) +
+                           Le<uint32_t>(0) + Le<uint32_t>(0x1000) + std::string(16, '\0') + Le<uint16_t>(0) +
+                           Le<uint8_t>(0) + Le<uint8_t>(0) + Le<uint32_t>(0xFF00);
+  std::string inner = BlfObject(101, 1'000'000, fd64 + "ABCDEFGH");
+  inner += BlfObject(1, 2'000'000, BlfCanBody(1, 0, 8, 0x124, "\x7F\x7F\x7F\x7F\x7F\x7F\x7F\x7F"));
+  WriteFile(dir.File("a.blf"), BlfFile(BlfContainer(inner)));
+  auto log = OpenFrameLog(dir.File("a.blf"));
+  const auto f = ReadAll(*log);
+  ASSERT_EQ(f.size(), 2u);
+  EXPECT_EQ(f[0].len, 64);
+  EXPECT_EQ(std::string(reinterpret_cast<const char*>(f[0].data.data()), 8), "ABCDEFGH");
+  for (size_t i = 8; i < 64; ++i) EXPECT_EQ(f[0].data[i], 0) << i;
+  EXPECT_EQ(f[1].id, 0x124u);
+}
+
 TEST(BlfReader, ReadsEveryObjectKindAcrossContainerBoundaries) {
   TempDir dir;
   const std::string inner = AllBlfObjects();
