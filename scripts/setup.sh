@@ -17,6 +17,7 @@ DEB_PACKAGES=(
   liblcm-dev liblcm-bin liblcm-java libglib2.0-dev default-jre-headless default-jdk-headless
   libspdlog-dev libyaml-cpp-dev libgtest-dev libgmock-dev libcli11-dev libsystemd-dev
   libbenchmark-dev nlohmann-json3-dev zlib1g-dev
+  pybind11-dev python3-dev                 # the Python package ndsid (docs/python.md)
   can-utils iproute2 systemd
   libjchart2d-java xvfb file unzip          # ndsid-lcm-spy's charts; tests/package (xvfb-run, dpkg-deb checks)
   clang libfuzzer-14-dev libclang-rt-14-dev       # scripts/fuzz.sh (libFuzzer, ASan, UBSan)
@@ -67,6 +68,12 @@ build() {
     cmake -S "$here" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >&2
   fi
   cmake --build "$dir" -j "$(nproc)" >&2
+  # The Python package ndsid (built into $dir/python) importable in the project venv.
+  local venv="$here/.venv"
+  if [[ -d "$dir/python/ndsid" && -x "$venv/bin/python3" ]]; then
+    local site; site="$("$venv/bin/python3" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
+    echo "$dir/python" >"$site/ndsid-build.pth"
+  fi
 }
 
 if [[ "${NDSID_SKIP_INSTALL:-0}" != 1 ]]; then

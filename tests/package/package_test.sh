@@ -61,7 +61,9 @@ needed=0
 missing=0
 for exe in extracted/usr/sbin/ndsidd extracted/usr/bin/ndsid; do
   for soname in $(readelf -d "$exe" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p'); do
-    lib="$(ldd "$exe" | awk -v s="$soname" '$1 == s {print $3}')"
+    # "name => path"; the dynamic loader (NEEDED by position-independent code using TLS) is listed
+    # by its path alone, "/lib64/ld-linux-x86-64.so.2 (0x...)".
+    lib="$(ldd "$exe" | awk -v s="$soname" '$1 == s {print $3; exit} $1 ~ ("/" s "$") {print $1; exit}')"
     [[ -n "$lib" ]] || fail "$exe: $soname not found by ldd"
     pkg=""
     for candidate in "$lib" "$(readlink -f "$lib")"; do
