@@ -8,6 +8,14 @@
 
 namespace ndsid::adequacy {
 
+State StateFromJson(const JsonIn& in) {
+  const std::string name = in.String();
+  for (State st : {State::kCollecting, State::kConverging, State::kAdequate}) {
+    if (name == StateName(st)) return st;
+  }
+  in.Fail("'" + name + "' is none of COLLECTING, CONVERGING, ADEQUATE");
+}
+
 const char* StateName(State s) {
   switch (s) {
     case State::kCollecting: return "COLLECTING";
@@ -117,13 +125,7 @@ void Tracker::FromJson(const JsonIn& in) {
     snaps.push_back(Snapshot{s.Finite("hours"), stats::Coverage::FromJson(s.At("coverage"))});
   }
   const double under = in.Finite("under_since_hours");
-  const std::string name = in.String("state");
-  State state = State::kCollecting;
-  bool known = false;
-  for (State st : {State::kCollecting, State::kConverging, State::kAdequate}) {
-    if (name == StateName(st)) state = st, known = true;
-  }
-  if (!known) in.At("state").Fail("'" + name + "' is none of COLLECTING, CONVERGING, ADEQUATE");
+  const State state = StateFromJson(in.At("state"));
   history_ = std::move(history);
   snapshots_ = std::move(snaps);
   under_since_hours_ = under;

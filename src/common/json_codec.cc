@@ -72,6 +72,13 @@ std::vector<double> JsonIn::Numbers(size_t max) const {
   return out;
 }
 
+std::vector<std::string> JsonIn::Strings(size_t max) const {
+  const size_t n = Size(max);
+  std::vector<std::string> out(n);
+  for (size_t i = 0; i < n; ++i) out[i] = At(i).String();
+  return out;
+}
+
 std::vector<float> JsonIn::Floats(size_t per_row, size_t max_rows) const {
   if (!v_->is_binary()) Fail("not a byte string");
   const auto& bytes = v_->get_binary();

@@ -24,12 +24,6 @@ ParameterEstimate ParamFromJson(const JsonIn& in) {
   return p;
 }
 
-std::vector<std::string> Strings(const JsonIn& in, size_t max) {
-  std::vector<std::string> out(in.Size(max));
-  for (size_t i = 0; i < out.size(); ++i) out[i] = in.At(i).String();
-  return out;
-}
-
 }  // namespace
 
 nlohmann::json ResultToJson(const IdentificationResult& f) {
@@ -135,11 +129,11 @@ IdentificationResult ResultFromJson(const JsonIn& in) {
   f.identifiability.condition_number = id.Number("condition_number");
   const std::vector<double> sv = id.At("singular_values").Numbers(model::kNumParams);
   for (size_t i = 0; i < sv.size(); ++i) f.identifiability.singular_values[i] = sv[i];
-  const std::vector<std::string> weak = Strings(id.At("weak"), kMaxEffectParams + model::kNumParams);
+  const std::vector<std::string> weak = id.At("weak").Strings(kMaxEffectParams + model::kNumParams);
   const std::vector<double> ratios = id.At("weak_singular_value_ratios").Numbers(weak.size());
   if (ratios.size() != weak.size()) id.At("weak_singular_value_ratios").Fail("not one per weak direction");
   for (size_t i = 0; i < weak.size(); ++i) f.identifiability.weak.push_back(WeakDirection{ratios[i], weak[i]});
-  f.identifiability.notes = Strings(id.At("notes"), 1024);
+  f.identifiability.notes = id.At("notes").Strings(1024);
   return f;
 }
 

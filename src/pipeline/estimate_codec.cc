@@ -99,12 +99,7 @@ Estimate EstimateFromJson(const JsonIn& in) {
   ss.n = s.Number("n");
   const JsonIn a = in.At("adequacy");
   adequacy::Report& r = e.adequacy;
-  const std::string state = a.String("state");
-  bool known = false;
-  for (adequacy::State st : {adequacy::State::kCollecting, adequacy::State::kConverging, adequacy::State::kAdequate}) {
-    if (state == adequacy::StateName(st)) r.state = st, known = true;
-  }
-  if (!known) a.At("state").Fail("'" + state + "' is none of COLLECTING, CONVERGING, ADEQUATE");
+  r.state = adequacy::StateFromJson(a.At("state"));
   r.gated_hours = a.Number("gated_hours");
   r.rel_change = a.Number("rel_change");
   r.rel_se = a.Number("rel_se");

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "ndsid/common/json_codec.h"
 #include "ndsid/config/config.h"
 #include "ndsid/stats/coverage.h"
 
@@ -15,6 +16,8 @@ namespace ndsid::adequacy {
 
 enum class State { kCollecting = 0, kConverging = 1, kAdequate = 2 };
 const char* StateName(State s);
+// The state of a StateName() text; throws CodecError at `in` for any other text.
+State StateFromJson(const JsonIn& in);
 
 struct EgPoint {
   double gated_hours = 0;

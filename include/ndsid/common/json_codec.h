@@ -45,6 +45,8 @@ class JsonIn {
   std::string String() const;
   // An array of numbers (null as NaN) of at most `max` entries.
   std::vector<double> Numbers(size_t max) const;
+  // An array of strings of at most `max` entries.
+  std::vector<std::string> Strings(size_t max) const;
 
   // Shorthands for a member.
   double Number(const char* key) const { return At(key).Number(); }

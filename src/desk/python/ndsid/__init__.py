@@ -53,6 +53,8 @@ def decode(log: str | os.PathLike, dbc: str | os.PathLike, *, bus: str = "", wid
     wide=True: one column per "message.signal", one row per time stamp; with rate_hz the
     signals are resampled onto a uniform grid by sample-and-hold (the last value at or before
     each grid time, as the pipeline's sync stage reads them)."""
+    if wide and rate_hz is not None and not rate_hz > 0:  # checked before any work
+        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
     d = _ndsid.decode(os.fspath(log), os.fspath(dbc), bus)
     codes = np.asarray(d["code"], dtype=np.int32)
 
@@ -73,8 +75,6 @@ def decode(log: str | os.PathLike, dbc: str | os.PathLike, *, bus: str = "", wid
     table.columns.name = None
     if rate_hz is None:
         return table.reset_index()
-    if not rate_hz > 0:
-        raise ConfigError(f"rate_hz must be > 0, got {rate_hz}")
     t0, t1 = table.index.min(), table.index.max()
     grid = pd.Index(t0 + np.arange(int(np.floor((t1 - t0) * rate_hz)) + 1) / rate_hz, name="t_s")
     held = table.ffill().reindex(table.index.union(grid)).ffill().reindex(grid)
