@@ -94,6 +94,30 @@ std::vector<float> JsonIn::Floats(size_t per_row, size_t max_rows) const {
   return out;
 }
 
+std::vector<double> JsonIn::Doubles(size_t count) const {
+  if (!v_->is_binary()) Fail("not a byte string");
+  const auto& bytes = v_->get_binary();
+  if (bytes.size() != count * sizeof(double)) {
+    Fail(std::to_string(bytes.size()) + " bytes, not " + std::to_string(count) + " float64 values");
+  }
+  std::vector<double> out(count);
+  for (size_t i = 0; i < count; ++i) {
+    uint64_t u = 0;
+    for (int b = 7; b >= 0; --b) u = (u << 8) | bytes[i * 8 + static_cast<size_t>(b)];
+    out[i] = std::bit_cast<double>(u);
+  }
+  return out;
+}
+
+nlohmann::json DoublesToBinary(const double* values, size_t count) {
+  std::vector<uint8_t> bytes(count * sizeof(double));
+  for (size_t i = 0; i < count; ++i) {
+    const uint64_t u = std::bit_cast<uint64_t>(values[i]);
+    for (size_t b = 0; b < 8; ++b) bytes[i * 8 + b] = static_cast<uint8_t>(u >> (8 * b));
+  }
+  return nlohmann::json::binary(std::move(bytes));
+}
+
 nlohmann::json FloatsToBinary(const float* values, size_t count) {
   std::vector<uint8_t> bytes(count * sizeof(float));
   for (size_t i = 0; i < count; ++i) {

@@ -10,25 +10,31 @@ namespace ndsid::identify {
 // Integrated autocorrelation time of the residuals (1 + 2 sum of the autocorrelation up to the
 // first lag where it turns negative), pooled over chunks: the factor by which strongly
 // correlated 50 Hz residuals overstate the information in the data.
-double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk) {
-  constexpr size_t kMaxLag = 250;
-  std::vector<double> acf(kMaxLag + 1, 0.0);
-  for (const auto& e : residuals_by_chunk) {
-    const size_t n = e.size();
-    for (size_t lag = 0; lag <= std::min(kMaxLag, n ? n - 1 : 0); ++lag) {
-      double s = 0;
-      for (size_t k = lag; k < n; ++k) s += e[k] * e[k - lag];
-      acf[lag] += s;
-    }
+void AddAutocorrelationSums(const std::vector<double>& e, std::vector<double>& acf) {
+  acf.resize(kAcfMaxLag + 1, 0.0);
+  const size_t n = e.size();
+  for (size_t lag = 0; lag <= std::min(kAcfMaxLag, n ? n - 1 : 0); ++lag) {
+    double s = 0;
+    for (size_t k = lag; k < n; ++k) s += e[k] * e[k - lag];
+    acf[lag] += s;
   }
-  if (acf[0] <= 0) return 1.0;
+}
+
+double AutocorrelationTimeFromSums(const std::vector<double>& acf) {
+  if (acf.empty() || acf[0] <= 0) return 1.0;
   double tau = 1.0;
-  for (size_t lag = 1; lag <= kMaxLag; ++lag) {
+  for (size_t lag = 1; lag < acf.size(); ++lag) {
     const double rho = acf[lag] / acf[0];
     if (rho <= 0) break;
     tau += 2.0 * rho;
   }
   return tau;
+}
+
+double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk) {
+  std::vector<double> acf(kAcfMaxLag + 1, 0.0);
+  for (const auto& e : residuals_by_chunk) AddAutocorrelationSums(e, acf);
+  return AutocorrelationTimeFromSums(acf);
 }
 
 double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_chunk) {

@@ -58,6 +58,8 @@ class JsonIn {
 
   // A CBOR byte string written by FloatsToBinary: `per_row` floats a row; returns the floats.
   std::vector<float> Floats(size_t per_row, size_t max_rows) const;
+  // A CBOR byte string written by DoublesToBinary: exactly `count` float64 values.
+  std::vector<double> Doubles(size_t count) const;
 
  private:
   const nlohmann::json* v_;
@@ -67,6 +69,8 @@ class JsonIn {
 // float32 values as a little-endian byte string (compact in CBOR; in text JSON nlohmann
 // writes it as {"bytes": [...], "subtype": null}).
 nlohmann::json FloatsToBinary(const float* values, size_t count);
+// float64 values as a little-endian byte string (one CBOR value, whatever the count).
+nlohmann::json DoublesToBinary(const double* values, size_t count);
 
 // Limits a CBOR document must keep before it is built in memory, so that a crafted file cannot
 // exhaust the stack (nesting) or the memory (values); a byte string counts as one value.

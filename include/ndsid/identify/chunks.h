@@ -49,6 +49,14 @@ std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, doubl
                               const std::map<int64_t, double>& loads = {});
 size_t BurnInSamples(const Chunk& c, double burn_in_s);
 
+// Autocorrelation sums sum_k e_k e_(k-lag), lags 0..kAcfMaxLag, of one series, added into acf
+// (resized to kAcfMaxLag + 1): pooled over chunks by adding, and kept per chunk by the
+// incremental update (linearized_window.h).
+constexpr size_t kAcfMaxLag = 250;
+void AddAutocorrelationSums(const std::vector<double>& e, std::vector<double>& acf);
+// 1 + 2 sum of acf[lag]/acf[0] up to the first lag where it turns negative; 1 without data.
+double AutocorrelationTimeFromSums(const std::vector<double>& acf);
+
 // Integrated autocorrelation time of residual series (1 + 2 sum of the autocorrelation up to
 // the first lag where it turns negative), pooled over chunks, in samples.
 double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk);
