@@ -313,6 +313,10 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
     CheckRange(id, "max_iterations", ic.max_iterations, 1, 100000);
     ic.threads = id.Integer("threads", ic.threads);
     CheckRange(id, "threads", ic.threads, 1, 256);
+    ic.incremental = id.Bool("incremental", ic.incremental);
+    ic.relinearize_sigma = Ranged(id, "relinearize_sigma", ic.relinearize_sigma, 0.01, 100);
+    ic.full_refit_every = id.Integer("full_refit_every", ic.full_refit_every);
+    CheckRange(id, "full_refit_every", ic.full_refit_every, 0, 1000000);
     if (id.Has("outputs")) {
       const std::vector<std::string> outputs = id.Strings("outputs", {"a_y"});
       if (outputs == std::vector<std::string>{"a_y"}) {

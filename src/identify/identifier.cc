@@ -88,6 +88,96 @@ double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const st
   return ResidualNoiseLevel(a);
 }
 
+// The quadratics are straight valleys where the true cost's valley is curved: along directions
+// the data hardly determine, the estimate can slide far while the Mahalanobis distance stays
+// small, and EG (a nonlinear function of the parameters) moves with it. Two guards: a prior
+// chunk is simulated again when any scaled parameter moved more than kRelinearizeStep from its
+// linearisation point (25 % of a base parameter's initial value, 12.5 % of an effect's box);
+// and the EG check of every incremental solution (Identifier::IdentifyAtLoads) simulates
+// kEgCheckChunks prior chunks at the solution and asks the error of their predicted scores,
+// scaled to the whole prior, to move EG by at most kEgCheck of its standard deviation.
+constexpr double kRelinearizeStep = 0.25;
+constexpr size_t kEgCheckChunks = 32;
+constexpr double kEgCheck = 0.15;
+
+// The sum of the prior's chunk quadratics, sum_c rss_c + 2 s_c'd_c + d_c' H_c d_c (d_c = theta -
+// theta_c), as residuals A theta - c with A'A = H = sum H_c and A'c = b = sum (H_c theta_c - s_c):
+// A = L^(1/2) V' over H's eigenpairs (V, L) above a relative floor.
+// A direction the prior does not determine at all (L_k at the floor, e.g. a fixed parameter's or
+// m's scaling direction when m is free) is held near the start theta0 (the last estimate) with a
+// standard deviation of 1 (the parameter's scale) by a second row sqrt(level) v_k'(theta - theta0),
+// so the solver cannot wander along it.
+class QuadraticPrior final : public ceres::CostFunction {
+ public:
+  explicit QuadraticPrior(int np) : np_(np) {
+    set_num_residuals(2 * np);
+    mutable_parameter_block_sizes()->push_back(np);
+  }
+  int weak_directions() const { return weak_; }
+  void Set(const std::vector<const LinearizedChunk*>& chunks, double level, const std::vector<double>& theta0) {
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(np_, np_);
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(np_);
+    for (const LinearizedChunk* c : chunks) {
+      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> hc(c->jtj.data(), np_, np_);
+      const Eigen::Map<const Eigen::VectorXd> th(c->theta.data(), np_), sc(c->score.data(), np_);
+      h += hc;
+      b += hc * th - sc;
+    }
+    h = 0.5 * (h + h.transpose());
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(h);
+    const Eigen::VectorXd lambda = es.eigenvalues();
+    const double floor = 1e-12 * std::max(0.0, lambda.maxCoeff());
+    a_ = Eigen::MatrixXd::Zero(2 * np_, np_);
+    c_ = Eigen::VectorXd::Zero(2 * np_);
+    weak_ = 0;
+    const Eigen::Map<const Eigen::VectorXd> t0(theta0.data(), np_);
+    for (int k = 0; k < np_; ++k) {
+      const Eigen::VectorXd v = es.eigenvectors().col(k);
+      double w = 0;
+      if (lambda[k] > floor) {
+        a_.row(k) = std::sqrt(lambda[k]) * v.transpose();
+        c_[k] = v.dot(b) / std::sqrt(lambda[k]);
+      } else if (level > 0) {
+        w = std::sqrt(level);
+      }
+      if (w > 0) {
+        a_.row(np_ + k) = w * v.transpose();
+        c_[np_ + k] = w * v.dot(t0);
+        ++weak_;
+      }
+    }
+  }
+  bool Evaluate(double const* const* p, double* r, double** jac) const override {
+    const Eigen::Map<const Eigen::VectorXd> theta(p[0], np_);
+    Eigen::Map<Eigen::VectorXd>(r, 2 * np_) = a_ * theta - c_;
+    if (jac && jac[0]) Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jac[0], 2 * np_, np_) = a_;
+    return true;
+  }
+
+ private:
+  int np_;
+  Eigen::MatrixXd a_;
+  Eigen::VectorXd c_;
+  int weak_ = 0;
+};
+
+// d EG / d theta (scaled parameters) at theta: the base parameters' entries, 0 for fixed ones and
+// for effects.
+Eigen::VectorXd EgGradientTheta(const std::vector<double>& theta, const std::vector<double>& scale, double wheelbase_m,
+                                const std::vector<Bound>& bounds) {
+  using Jet6 = ceres::Jet<double, 6>;
+  model::Params<Jet6> pj{Jet6(theta[0] * scale[0], 0), Jet6(theta[1] * scale[1], 1), Jet6(theta[2] * scale[2], 2),
+                         Jet6(theta[3] * scale[3], 3), Jet6(theta[4] * scale[4], 4), Jet6(theta[5] * scale[5], 5)};
+  const Jet6 eg = model::SelfSteerGradient(pj, wheelbase_m);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(static_cast<int>(theta.size()));
+  for (int i = 0; i < model::kNumParams; ++i) g[i] = bounds[i].fixed ? 0.0 : eg.v[i] * scale[i];
+  return g;
+}
+
+bool SameSegment(const LinearizedSegment& l, const stats::Segment& s) {
+  return l.drive_id == s.drive_id && l.t0_ns == s.t0_ns && l.samples == s.samples.size();
+}
+
 }  // namespace
 
 model::Params<double> IdentificationResult::AsParams() const {
@@ -178,6 +268,13 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
                                           const std::optional<std::vector<double>>& warm_start) const {
   return spec_.per_drive_load() ? IdentifyWithDriveLoads(training, validation, warm_start)
                                 : IdentifyAtLoads(training, validation, warm_start);
+}
+
+IdentificationResult Identifier::Identify(const SegmentList& training, const SegmentList& validation,
+                                          const std::optional<std::vector<double>>& warm_start,
+                                          const IncrementalUpdate& update) const {
+  if (spec_.per_drive_load()) return IdentifyWithDriveLoads(training, validation, warm_start);
+  return IdentifyAtLoads(training, validation, warm_start, &update);
 }
 
 void Identifier::set_drive_loads(const std::vector<DriveLoad>& loads) {
@@ -342,16 +439,12 @@ std::vector<Identifier::StandstillPrior> Identifier::StandstillPriors(const std:
 }
 
 IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, const SegmentList& validation,
-                                                 const std::optional<std::vector<double>>& warm_start) const {
+                                                 const std::optional<std::vector<double>>& warm_start,
+                                                 const IncrementalUpdate* update) const {
   IdentificationResult r;
   r.model = spec_.Describe();
   const auto t_start = std::chrono::steady_clock::now();
   const int np = spec_.num_params();
-  const auto chunks = MakeChunks(training, config_.chunk_s, config_.burn_in_s, drive_loads_);
-  if (chunks.empty()) {
-    r.reason = "no gated segment long enough for the dynamic fit";
-    return r;
-  }
   // Box, initial values and scaling of every parameter: base from configuration, effects from
   // the effect library. theta_i = p_i / scale_i keeps every unknown O(1) for the solver.
   std::vector<Bound> bounds(static_cast<size_t>(np));
@@ -374,29 +467,168 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
     theta[i] = std::clamp(v, bounds[i].lower, bounds[i].upper) / scale[i];
   }
 
+  // Incremental update (docs/incremental.md): the training segments the prior holds enter the
+  // fit as their chunks' quadratics; the others are simulated.
+  const LinearizedWindow* prior = update && update->prior && drive_loads_.empty() &&
+                                          update->prior->Compatible(r.model, scale, config_.chunk_s, config_.burn_in_s)
+                                      ? update->prior.get()
+                                      : nullptr;
+  struct PriorSegment {
+    const stats::Segment* seg;
+    const LinearizedSegment* lin;
+  };
+  std::vector<PriorSegment> from_prior;
+  SegmentList simulated;
+  if (prior) {
+    std::map<std::pair<int64_t, int64_t>, const LinearizedSegment*> by_key;
+    for (const LinearizedSegment& ls : prior->segments) by_key[{ls.drive_id, ls.t0_ns}] = &ls;
+    for (const stats::Segment* seg : training) {
+      const auto it = seg ? by_key.find({seg->drive_id, seg->t0_ns}) : by_key.end();
+      if (it != by_key.end() && SameSegment(*it->second, *seg)) {
+        from_prior.push_back({seg, it->second});
+      } else {
+        simulated.push_back(seg);
+      }
+    }
+  } else {
+    simulated = training;
+  }
+  // Segments of the prior whose linearisation point lies more than relinearize_sigma of the
+  // prior's own standard deviation from `at` (Mahalanobis distance with the prior's J'J over its
+  // noise level sigma^2 tau): they are simulated again.
+  // The noise level sigma^2 tau of the prior's (weighted) residuals.
+  auto prior_level = [&]() {
+    std::vector<double> acf(kAcfMaxLag + 1, 0.0);
+    double n = 0;
+    for (const PriorSegment& ps : from_prior) {
+      for (const LinearizedChunk& c : ps.lin->chunks) {
+        for (const auto* a : {&c.acf_a_y, &c.acf_yaw_rate})
+          for (size_t k = 0; k < a->size() && k < acf.size(); ++k) acf[k] += (*a)[k];
+        n += c.n_a_y + c.n_yaw_rate;
+      }
+    }
+    return n > 0 ? acf[0] / n * AutocorrelationTimeFromSums(acf) : 0.0;
+  };
+  auto stale_segments = [&](const std::vector<double>& at) {
+    std::vector<size_t> out;
+    if (from_prior.empty()) return out;
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(np, np);
+    for (const PriorSegment& ps : from_prior) {
+      for (const LinearizedChunk& c : ps.lin->chunks) {
+        h += Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(c.jtj.data(), np, np);
+      }
+    }
+    const double level = prior_level();
+    if (!(level > 0)) return out;
+    const Eigen::Map<const Eigen::VectorXd> x(at.data(), np);
+    for (size_t i = 0; i < from_prior.size(); ++i) {
+      double worst = 0, step = 0;
+      for (const LinearizedChunk& c : from_prior[i].lin->chunks) {
+        const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
+        worst = std::max(worst, d.dot(h * d) / level);
+        step = std::max(step, d.lpNorm<Eigen::Infinity>());
+      }
+      if (!(worst <= update->relinearize_sigma * update->relinearize_sigma) || !(step <= kRelinearizeStep)) {
+        spdlog::debug("incremental: prior segment {} stale ({:.3g} sigma, step {:.3g})", i, std::sqrt(worst), step);
+        out.push_back(i);
+      }
+    }
+    return out;
+  };
+  auto relinearize = [&](const std::vector<size_t>& stale) {
+    for (auto it = stale.rbegin(); it != stale.rend(); ++it) {
+      r.chunks_relinearized += from_prior[*it].lin->chunks.size();
+      simulated.push_back(from_prior[*it].seg);
+      from_prior.erase(from_prior.begin() + static_cast<std::ptrdiff_t>(*it));
+    }
+  };
+  if (prior) relinearize(stale_segments(theta));
+  const std::vector<double> theta0 = theta;  // the start: the anchor along the prior's weak directions
+  std::vector<Chunk> chunks;
+  std::vector<const stats::Segment*> chunk_segment;  // the segment each chunk was cut from
+  auto cut = [&](const SegmentList& segs) {
+    for (const stats::Segment* seg : segs) {
+      for (const Chunk& c : MakeChunks({seg}, config_.chunk_s, config_.burn_in_s, drive_loads_)) {
+        chunks.push_back(c);
+        chunk_segment.push_back(seg);
+      }
+    }
+  };
+  cut(simulated);
+  if (chunks.empty() && from_prior.empty()) {
+    r.reason = "no gated segment long enough for the dynamic fit";
+    return r;
+  }
+
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   // Outputs: a_y alone (weight 1: the classical fit), or a_y and the yaw rate, each divided by
   // the square root of its noise level sigma^2 tau, first at the start values, then (below) at
   // the solution, refitting once when the ratio of the two moved by more than 1.5x.
+  // With a prior, its weights hold (the outputs must be the same as when it was built).
   size_t chunks_with_yaw = 0;
   for (const Chunk& c : chunks) chunks_with_yaw += c.has_yaw_rate() ? 1 : 0;
+  for (const PriorSegment& ps : from_prior)
+    for (const LinearizedChunk& c : ps.lin->chunks) chunks_with_yaw += c.n_yaw_rate > 0 ? 1 : 0;
   const bool two_outputs = config_.yaw_rate_output && chunks_with_yaw > 0;
+  if (prior && two_outputs != (prior->weight_yaw_rate > 0)) {
+    IncrementalUpdate whole = *update;
+    whole.prior = nullptr;
+    return IdentifyAtLoads(training, validation, warm_start, &whole);
+  }
   auto weights = std::make_shared<OutputWeights>();
   weights->yaw_rate = two_outputs ? 1.0 : 0.0;
+  if (prior) *weights = {prior->weight_a_y, prior->weight_yaw_rate};
   std::vector<std::unique_ptr<CostFn>> costs;
   std::vector<size_t> n_a;  // a_y residuals per cost (the yaw-rate ones follow)
   costs.reserve(chunks.size());
   size_t n_res = 0, n_res_a = 0;
-  for (const Chunk& c : chunks) {
-    const size_t burn = BurnInSamples(c, config_.burn_in_s);
-    costs.push_back(MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, weights));
-    problem.AddResidualBlock(costs.back().get(), nullptr, theta.data());
-    n_res += static_cast<size_t>(costs.back()->num_residuals());
-    n_a.push_back(c.n - burn);
-    n_res_a += c.n - burn;
+  auto add_costs = [&](size_t first) {
+    for (size_t ci = first; ci < chunks.size(); ++ci) {
+      const Chunk& c = chunks[ci];
+      const size_t burn = BurnInSamples(c, config_.burn_in_s);
+      costs.push_back(MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, weights));
+      problem.AddResidualBlock(costs.back().get(), nullptr, theta.data());
+      n_res += static_cast<size_t>(costs.back()->num_residuals());
+      n_a.push_back(c.n - burn);
+      n_res_a += c.n - burn;
+    }
+  };
+  add_costs(0);
+  QuadraticPrior quadratic(np);
+  auto set_quadratic = [&]() {
+    std::vector<const LinearizedChunk*> lin;
+    for (const PriorSegment& ps : from_prior)
+      for (const LinearizedChunk& c : ps.lin->chunks) lin.push_back(&c);
+    quadratic.Set(lin, prior_level(), theta0);
+  };
+  if (prior) {
+    set_quadratic();
+    problem.AddResidualBlock(&quadratic, nullptr, theta.data());
   }
+  // The noise level of the (weighted) residuals at theta, pooled with the prior's chunks.
+  auto noise_level = [&]() {
+    if (!prior) return NoiseLevel(costs, n_a, theta.data());
+    std::vector<std::vector<double>> a, rr;
+    EvaluateSeries(costs, n_a, theta.data(), a, rr);
+    std::vector<double> acf(kAcfMaxLag + 1, 0.0);
+    double n = 0;
+    for (const auto* series : {&a, &rr}) {
+      for (const auto& e : *series) {
+        AddAutocorrelationSums(e, acf);
+        n += static_cast<double>(e.size());
+      }
+    }
+    for (const PriorSegment& ps : from_prior) {
+      for (const LinearizedChunk& c : ps.lin->chunks) {
+        for (const auto* x : {&c.acf_a_y, &c.acf_yaw_rate})
+          for (size_t k = 0; k < x->size() && k < acf.size(); ++k) acf[k] += (*x)[k];
+        n += c.n_a_y + c.n_yaw_rate;
+      }
+    }
+    return n > 0 ? acf[0] / n * AutocorrelationTimeFromSums(acf) : 0.0;
+  };
   // Unweighted noise levels (sigma^2 tau) of each output at theta; sets the weights from them.
   double level_a = 0, level_r = 0;
   auto set_weights = [&]() {
@@ -415,7 +647,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
     const double ratio_old = old.yaw_rate / old.a_y, ratio_new = weights->yaw_rate / weights->a_y;
     return ratio_new * ratio_new > 1.5 * ratio_old * ratio_old || ratio_new * ratio_new < ratio_old * ratio_old / 1.5;
   };
-  set_weights();
+  if (!prior) set_weights();
   std::vector<int> fixed, free;
   for (int i = 0; i < np; ++i) {
     (bounds[i].fixed ? fixed : free).push_back(i);
@@ -455,7 +687,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   }
   double prior_weight = 0;
   if (!priors.empty()) {
-    prior_weight = NoiseLevel(costs, n_a, theta.data());
+    prior_weight = noise_level();
     for (auto& pc : priors) pc->set_weight(prior_weight);
   }
 
@@ -470,10 +702,10 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   r.iterations = static_cast<int>(summary.iterations.size());
-  if (two_outputs && summary.IsSolutionUsable() && set_weights()) {
+  if (two_outputs && !prior && summary.IsSolutionUsable() && set_weights()) {
     // The outputs' noise levels at the solution differ from those at the start: refit once.
     if (!priors.empty()) {
-      prior_weight = NoiseLevel(costs, n_a, theta.data());
+      prior_weight = noise_level();
       for (auto& pc : priors) pc->set_weight(prior_weight);
     }
     ceres::Solve(options, &problem, &summary);
@@ -482,13 +714,87 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   }
   if (!priors.empty() && summary.IsSolutionUsable()) {
     // The priors' weight was the noise level at the start; refit once if the fit moved it much.
-    const double w = NoiseLevel(costs, n_a, theta.data());
+    const double w = noise_level();
     if (w > 0 && (w > 2 * prior_weight || w < 0.5 * prior_weight)) {
       prior_weight = w;
       for (auto& pc : priors) pc->set_weight(prior_weight);
       ceres::Solve(options, &problem, &summary);
       r.iterations += static_cast<int>(summary.iterations.size());
     }
+  }
+  // Incremental: if the solution left some prior segments' linearisation points, simulate them
+  // and solve again (at most three rounds; every segment simulated is the full-window fit).
+  // The quadratics are also checked where it matters, on EG: a sample of the prior's chunks is
+  // simulated at the solution, the error of their predicted scores (J'e) is scaled to the whole
+  // prior, and the Newton step it implies moves EG by `shift`; beyond kEgCheck of EG's standard
+  // deviation, every prior segment is simulated again.
+  auto eg_check = [&]() -> bool {
+    std::vector<std::pair<size_t, size_t>> all;  // (prior segment, chunk)
+    for (size_t i = 0; i < from_prior.size(); ++i)
+      for (size_t k = 0; k < from_prior[i].lin->chunks.size(); ++k) all.emplace_back(i, k);
+    if (all.empty()) return true;
+    const size_t step = std::max<size_t>(1, all.size() / kEgCheckChunks);
+    Eigen::VectorXd dg = Eigen::VectorXd::Zero(np);
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(np, np);
+    for (const auto& [i, k] : all) {
+      h += Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+          from_prior[i].lin->chunks[k].jtj.data(), np, np);
+    }
+    size_t sampled = 0;
+    std::map<const stats::Segment*, std::vector<Chunk>> cut_segments;
+    for (size_t a = step / 2; a < all.size(); a += step) {
+      const auto [i, k] = all[a];
+      auto it = cut_segments.find(from_prior[i].seg);
+      if (it == cut_segments.end())
+        it = cut_segments.emplace(from_prior[i].seg, MakeChunks({from_prior[i].seg}, config_.chunk_s, config_.burn_in_s, drive_loads_)).first;
+      if (k >= it->second.size()) continue;
+      const LinearizedChunk& lc = from_prior[i].lin->chunks[k];
+      auto cost = MakeChunkCost(it->second[k], BurnInSamples(it->second[k], config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
+      const int m = cost->num_residuals();
+      std::vector<double> e(static_cast<size_t>(m)), jac(static_cast<size_t>(m) * np);
+      const double* pp[] = {theta.data()};
+      double* jj[] = {jac.data()};
+      if (!cost->Evaluate(pp, e.data(), jj)) return false;
+      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, np);
+      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> hc(lc.jtj.data(), np, np);
+      const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(lc.theta.data(), np);
+      dg += J.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data(), m) - (Eigen::Map<const Eigen::VectorXd>(lc.score.data(), np) + hc * d);
+      ++sampled;
+    }
+    if (sampled == 0) return true;
+    dg *= static_cast<double>(all.size()) / static_cast<double>(sampled);
+    std::vector<int> fr;
+    for (int i = 0; i < np; ++i)
+      if (!bounds[i].fixed) fr.push_back(i);
+    const int nf = static_cast<int>(fr.size());
+    Eigen::MatrixXd hf(nf, nf);
+    Eigen::VectorXd gf(nf), dgf(nf);
+    const Eigen::VectorXd eg_g = EgGradientTheta(theta, scale, wheelbase_m_, bounds);
+    for (int a = 0; a < nf; ++a) {
+      gf[a] = eg_g[fr[a]];
+      dgf[a] = dg[fr[a]];
+      for (int b = 0; b < nf; ++b) hf(a, b) = h(fr[a], fr[b]);
+    }
+    const Eigen::MatrixXd hinv = hf.completeOrthogonalDecomposition().pseudoInverse();
+    const double shift = std::abs(gf.dot(hinv * dgf));
+    const double sd = std::sqrt(std::max(0.0, prior_level() * gf.dot(hinv * gf)));
+    spdlog::debug("incremental: EG check over {} of {} prior chunks: the quadratics' error moves EG by {:.3g} sigma", sampled,
+                  all.size(), sd > 0 ? shift / sd : 0.0);
+    return sd > 0 && shift <= kEgCheck * sd;
+  };
+  for (int round = 0; prior && round < 3 && summary.IsSolutionUsable(); ++round) {
+    std::vector<size_t> stale = stale_segments(theta);
+    if (stale.empty() && !eg_check()) {
+      for (size_t i = 0; i < from_prior.size(); ++i) stale.push_back(i);
+    }
+    if (stale.empty()) break;
+    const size_t first_simulated = simulated.size(), first_chunk = chunks.size();
+    relinearize(stale);
+    cut(SegmentList(simulated.begin() + static_cast<std::ptrdiff_t>(first_simulated), simulated.end()));
+    add_costs(first_chunk);
+    set_quadratic();
+    ceres::Solve(options, &problem, &summary);
+    r.iterations += static_cast<int>(summary.iterations.size());
   }
   r.termination = ceres::TerminationTypeToString(summary.termination_type);
   if (!summary.IsSolutionUsable()) {
@@ -503,6 +809,8 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   std::vector<std::vector<double>> chunk_residuals;
   double rss = 0, rss_a = 0, rss_r = 0;  // weighted (all), unweighted per output
   std::vector<std::vector<double>> series_a, series_r;
+  const bool keep = update && update->keep;
+  std::vector<LinearizedChunk> simulated_lin(keep ? costs.size() : 0);
   const double* params[] = {theta.data()};
   for (size_t ci = 0; ci < costs.size(); ++ci) {
     const auto& cost = costs[ci];
@@ -526,14 +834,66 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
       chunk_residuals.emplace_back(split, e.end());
       series_r.emplace_back(split, e.end());
     }
+    if (keep) {  // this chunk's quadratic at the estimate: the next update's prior
+      LinearizedChunk& lc = simulated_lin[ci];
+      lc.theta = theta;
+      lc.jtj.resize(static_cast<size_t>(np) * np);
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(lc.jtj.data(), np, np) = J.transpose() * J;
+      lc.score.resize(static_cast<size_t>(np));
+      Eigen::Map<Eigen::VectorXd>(lc.score.data(), np) = chunk_scores.back();
+      lc.rss = ev.squaredNorm();
+      lc.n_a_y = static_cast<uint32_t>(n_a[ci]);
+      lc.n_yaw_rate = static_cast<uint32_t>(e.size() - n_a[ci]);
+      for (auto it = e.begin(); it != split; ++it) lc.rss_a_y += (*it / weights->a_y) * (*it / weights->a_y);
+      for (auto it = split; it != e.end(); ++it) lc.rss_yaw_rate += (*it / weights->yaw_rate) * (*it / weights->yaw_rate);
+      AddAutocorrelationSums(series_a.back(), lc.acf_a_y);
+      if (split != e.end()) AddAutocorrelationSums(series_r.back(), lc.acf_yaw_rate);
+    }
   }
+  r.chunks_simulated = chunks.size();
+  for (const Chunk& c : chunks) r.train_hours += c.n * c.dt_s / 3600.0;
+  // The prior's chunks: their quadratics at the estimate (J'J, score, sum of squares), their
+  // per-output sums of squares and autocorrelation sums as when they were last simulated.
+  std::vector<double> acf_a, acf_r;  // pooled autocorrelation sums (incremental only)
+  if (prior) {
+    for (const auto& e : series_a) AddAutocorrelationSums(e, acf_a);
+    for (const auto& e : series_r) AddAutocorrelationSums(e, acf_r);
+    for (const PriorSegment& ps : from_prior) {
+      for (const LinearizedChunk& c : ps.lin->chunks) {
+        const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> hc(c.jtj.data(), np, np);
+        const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
+        const Eigen::VectorXd score = Eigen::Map<const Eigen::VectorXd>(c.score.data(), np) + hc * d;
+        jtj += hc;
+        chunk_scores.push_back(score);
+        rss += std::max(0.0, c.rss + 2 * Eigen::Map<const Eigen::VectorXd>(c.score.data(), np).dot(d) + d.dot(hc * d));
+        rss_a += c.rss_a_y;
+        rss_r += c.rss_yaw_rate;
+        n_res += c.n_a_y + c.n_yaw_rate;
+        n_res_a += c.n_a_y;
+        for (size_t k = 0; k < c.acf_a_y.size(); ++k) acf_a.resize(kAcfMaxLag + 1), acf_a[k] += c.acf_a_y[k];
+        for (size_t k = 0; k < c.acf_yaw_rate.size(); ++k) acf_r.resize(kAcfMaxLag + 1), acf_r[k] += c.acf_yaw_rate[k];
+        r.train_hours += (c.n_a_y + BurnInSamples(Chunk{nullptr, 0, ps.seg->dt_s, 0, nullptr}, config_.burn_in_s)) *
+                         ps.seg->dt_s / 3600.0;
+        ++r.chunks_from_prior;
+      }
+    }
+  }
+  // sigma^2 tau of pooled sums (acf[0] is the sum of squares).
+  auto level_of = [](const std::vector<double>& acf, size_t n) {
+    return n && !acf.empty() ? acf[0] / static_cast<double>(n) * AutocorrelationTimeFromSums(acf) : 0.0;
+  };
   r.residuals_train = n_res_a;
   r.residuals_train_yaw = n_res - n_res_a;
-  r.chunks = chunks.size();
-  for (const Chunk& c : chunks) r.train_hours += c.n * c.dt_s / 3600.0;
+  r.chunks = r.chunks_simulated + r.chunks_from_prior;
   r.rmse_train_mps2 = std::sqrt(rss_a / static_cast<double>(n_res_a));
   r.yaw_rate_output = two_outputs;
-  if (two_outputs) {
+  if (prior) {
+    r.noise_level_a_y = level_of(acf_a, n_res_a) / (weights->a_y * weights->a_y);
+    if (two_outputs) {
+      r.rmse_train_yaw_radps = std::sqrt(rss_r / static_cast<double>(n_res - n_res_a));
+      r.noise_level_yaw_rate = level_of(acf_r, n_res - n_res_a) / (weights->yaw_rate * weights->yaw_rate);
+    }
+  } else if (two_outputs) {
     r.rmse_train_yaw_radps = std::sqrt(rss_r / static_cast<double>(n_res - n_res_a));
     r.noise_level_a_y = ResidualNoiseLevel(series_a) / (weights->a_y * weights->a_y);
     r.noise_level_yaw_rate = ResidualNoiseLevel(series_r) / (weights->yaw_rate * weights->yaw_rate);
@@ -572,12 +932,22 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   // Two honest covariances for autocorrelated residuals; the one more cautious about EG wins:
   // the classical one inflated by the residuals' integrated autocorrelation time, and (with
   // enough chunks) the cluster-robust sandwich over chunks.
-  const double tau = IntegratedAutocorrelationTime(chunk_residuals);
+  double tau = 0;
+  if (prior) {
+    std::vector<double> acf = acf_a;
+    acf.resize(kAcfMaxLag + 1, 0.0);
+    for (size_t k = 0; k < acf_r.size(); ++k) acf[k] += acf_r[k];
+    tau = AutocorrelationTimeFromSums(acf);
+  } else {
+    tau = IntegratedAutocorrelationTime(chunk_residuals);
+  }
   // Classical: (J'J / (sigma^2 tau) + P)^-1; sandwich bread: (J'J + sigma^2 tau P)^-1.
   const Eigen::MatrixXd jtj_inv = (jtj_f + sigma2 * tau * prior_info).completeOrthogonalDecomposition().pseudoInverse();
   Eigen::MatrixXd cov = jtj_inv * sigma2 * tau;
   char method[160];
   std::snprintf(method, sizeof method, "autocorrelation-corrected (tau=%.1f samples)", tau);
+  spdlog::debug("fit: sigma^2 {:.4g} over {} residuals, tau {:.2f}, rss {:.5g}, {} chunks ({} from the prior)", sigma2, n_res, tau,
+                rss, chunks.size() + r.chunks_from_prior, r.chunks_from_prior);
   r.se_method = method;
   const size_t g = chunk_scores.size();
   if (g >= 10) {
@@ -683,6 +1053,41 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);
   if (!r.valid) r.reason = "non-finite EG or standard error";
+  if (prior) {
+    char how[200];
+    std::snprintf(how, sizeof how, "incremental: %zu chunks simulated (%zu of them relinearised), %zu from the prior",
+                  r.chunks_simulated, r.chunks_relinearized, r.chunks_from_prior);
+    r.update = how;
+  }
+  if (keep && r.valid) {
+    // The next update's prior, in the training segments' order.
+    auto lw = std::make_shared<LinearizedWindow>();
+    lw->model = r.model;
+    lw->scale = scale;
+    lw->weight_a_y = weights->a_y;
+    lw->weight_yaw_rate = weights->yaw_rate;
+    lw->chunk_s = config_.chunk_s;
+    lw->burn_in_s = config_.burn_in_s;
+    lw->updates_since_full = prior && r.chunks_from_prior > 0 ? prior->updates_since_full + 1 : 0;
+    std::map<const stats::Segment*, const LinearizedSegment*> kept;
+    for (const PriorSegment& ps : from_prior) kept[ps.seg] = ps.lin;
+    std::map<const stats::Segment*, std::vector<size_t>> fresh;
+    for (size_t ci = 0; ci < chunks.size(); ++ci) fresh[chunk_segment[ci]].push_back(ci);
+    for (const stats::Segment* seg : training) {
+      if (!seg) continue;
+      LinearizedSegment ls;
+      ls.drive_id = seg->drive_id;
+      ls.t0_ns = seg->t0_ns;
+      ls.samples = seg->samples.size();
+      if (const auto k = kept.find(seg); k != kept.end()) {
+        ls.chunks = k->second->chunks;
+      } else if (const auto f = fresh.find(seg); f != fresh.end()) {
+        for (size_t ci : f->second) ls.chunks.push_back(std::move(simulated_lin[ci]));
+      }
+      if (!ls.chunks.empty()) lw->segments.push_back(std::move(ls));
+    }
+    r.linearized = std::move(lw);
+  }
   return r;
 }
 

@@ -66,6 +66,10 @@ nlohmann::json ResultToJson(const IdentificationResult& f) {
   j["iterations"] = f.iterations;
   j["solve_seconds"] = f.solve_seconds;
   j["termination"] = f.termination;
+  j["update"] = f.update;
+  j["chunks_simulated"] = f.chunks_simulated;
+  j["chunks_from_prior"] = f.chunks_from_prior;
+  j["chunks_relinearized"] = f.chunks_relinearized;
   nlohmann::json& id = j["identifiability"];
   id["condition_number"] = f.identifiability.condition_number;
   id["singular_values"] = f.identifiability.singular_values;
@@ -125,6 +129,12 @@ IdentificationResult ResultFromJson(const JsonIn& in) {
   f.iterations = static_cast<int>(iterations);
   f.solve_seconds = in.Number("solve_seconds");
   f.termination = in.String("termination");
+  if (in.Has("update")) {  // since the incremental update (older documents: a full-window fit)
+    f.update = in.String("update");
+    f.chunks_simulated = in.UInt64("chunks_simulated");
+    f.chunks_from_prior = in.UInt64("chunks_from_prior");
+    f.chunks_relinearized = in.UInt64("chunks_relinearized");
+  }
   const JsonIn id = in.At("identifiability");
   f.identifiability.condition_number = id.Number("condition_number");
   const std::vector<double> sv = id.At("singular_values").Numbers(model::kNumParams);

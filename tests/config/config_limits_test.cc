@@ -26,6 +26,8 @@ TEST(ConfigLimits, AbsurdNumbersAreLocatedErrors) {
       {"identification:\n  period_s: 1e-9\n", "car.yaml:9: identification.period_s: value 1e-09 out of range"},
       {"identification:\n  max_iterations: -5\n", "car.yaml:9: identification.max_iterations: value -5 out of range"},
       {"adequacy:\n  hold_h: 1e30\n", "car.yaml:9: adequacy.hold_h: value 1e+30 out of range"},
+      {"identification:\n  relinearize_sigma: 0\n", "car.yaml:9: identification.relinearize_sigma: value 0 out of range [0.01, 100]"},
+      {"identification:\n  full_refit_every: -1\n", "car.yaml:9: identification.full_refit_every: value -1 out of range"},
   };
   for (const auto& [yaml, want] : cases) {
     const std::string e = ErrorOf(std::string(kMinimal) + yaml);
@@ -33,6 +35,9 @@ TEST(ConfigLimits, AbsurdNumbersAreLocatedErrors) {
   }
   // The documented defaults and the bundled configs' values stay inside.
   EXPECT_EQ(ErrorOf(std::string(kMinimal) + "lcm:\n  status_rate_hz: 1\n  monitor_rate_hz: 10\nsync:\n  latency_s: 0.05\n"), "");
+  EXPECT_EQ(ErrorOf(std::string(kMinimal) + "identification:\n  incremental: false\n  relinearize_sigma: 2\n  full_refit_every: 0\n"), "");
+  EXPECT_NE(ErrorOf(std::string(kMinimal) + "identification:\n  incremental: maybe\n").find("car.yaml:9: identification.incremental"),
+            std::string::npos);
 }
 
 // Catches: a non-finite number in a list (valid_values: [.nan]) accepted.

@@ -125,6 +125,14 @@ struct IdentificationConfig {
   // residuals are fitted in one problem, each divided by its own noise level; chunks without a
   // yaw rate signal fall back to a_y alone.
   bool yaw_rate_output = false;
+  // Incremental re-identification (docs/incremental.md): each periodic update fits the new data
+  // plus the quadratic prior of the data already fitted; a prior segment is simulated again when
+  // the estimate moved more than relinearize_sigma of the prior's standard deviation from its
+  // linearisation point; every full_refit_every-th update (0: never on a schedule) and the final
+  // fit at the end of data refit the whole window.
+  bool incremental = true;
+  double relinearize_sigma = 2.0;
+  int full_refit_every = 36;
 };
 
 struct AdequacyConfig {

@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -15,6 +16,7 @@
 
 #include "ndsid/config/config.h"
 #include "ndsid/gate/gate.h"
+#include "ndsid/identify/linearized_window.h"
 #include "ndsid/model/model_spec.h"
 #include "ndsid/model/single_track.h"
 #include "ndsid/stats/segment.h"
@@ -88,9 +90,29 @@ struct IdentificationResult {
   std::string se_method;  // "cluster-robust (N chunks)" or "autocorrelation-corrected"
   IdentifiabilityReport identifiability;
   std::vector<DriveLoad> drive_loads;  // load_change only: training drives, then held-out ones
+  // How the fit was computed (docs/incremental.md): "full window", or "incremental" with the
+  // chunks simulated (new data and relinearised ones) and those taken from the prior.
+  std::string update = "full window";
+  size_t chunks_simulated = 0;
+  size_t chunks_from_prior = 0;
+  size_t chunks_relinearized = 0;  // chunks of the prior simulated again (their point was left)
+  // Every training chunk's quadratic at this fit's estimate (or kept from the prior): the next
+  // incremental update's prior. Set when asked for (IncrementalUpdate::keep) and the fit is usable.
+  std::shared_ptr<const LinearizedWindow> linearized;
 
   model::Params<double> AsParams() const;
   std::vector<double> AllValues() const;  // base then effect parameters (ModelSpec layout)
+};
+
+// Incremental re-identification (docs/incremental.md): fit only the data the prior does not
+// hold, plus the prior's quadratic; a segment of the prior is simulated again (relinearised)
+// when the estimate lies more than relinearize_sigma of the prior's own standard deviation from
+// its chunks' linearisation point, before or after the solve. Without a usable prior (none, or
+// built for another model, scaling, chunking or outputs) the fit covers the whole window.
+struct IncrementalUpdate {
+  std::shared_ptr<const LinearizedWindow> prior;
+  double relinearize_sigma = 2.0;
+  bool keep = true;  // return the linearisation (IdentificationResult::linearized)
 };
 
 class Identifier {
@@ -103,6 +125,10 @@ class Identifier {
                                 const std::optional<std::vector<double>>& warm_start = std::nullopt) const;
   IdentificationResult Identify(const SegmentList& training, const SegmentList& validation,
                                 const std::optional<model::Params<double>>& warm_start) const;
+  // The same, incrementally on top of update.prior (a load_change model is always fitted whole).
+  IdentificationResult Identify(const SegmentList& training, const SegmentList& validation,
+                                const std::optional<std::vector<double>>& warm_start,
+                                const IncrementalUpdate& update) const;
 
   // RMSE of the model with parameters (full vector, or base only when the model has no
   // effects) over the segments, burn-in dropped as in the fit; -1 when there are no residuals.
@@ -155,7 +181,8 @@ class Identifier {
 
  private:
   IdentificationResult IdentifyAtLoads(const SegmentList& training, const SegmentList& validation,
-                                       const std::optional<std::vector<double>>& warm_start) const;
+                                       const std::optional<std::vector<double>>& warm_start,
+                                       const IncrementalUpdate* update = nullptr) const;
   IdentificationResult IdentifyWithDriveLoads(const SegmentList& training, const SegmentList& validation,
                                               const std::optional<std::vector<double>>& warm_start) const;
   // The load ratio of one drive minimising its RSS with the parameters held (Gauss-Newton on a
