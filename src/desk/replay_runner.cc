@@ -79,7 +79,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
   }
   progress.Done();
   pipeline.Finish();
-  if (!pipeline.accumulator().window().empty()) pipeline.IdentifyNow();
+  if (!pipeline.accumulator().window().empty()) pipeline.IdentifyNow(true);  // the final fit: the whole window
   out.history = pipeline.history();
   // The final fit, valid or not (a replay reports what its data give; the daemon keeps
   // publishing its last valid estimate beside a not-valid one).
@@ -316,6 +316,15 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
     std::printf("  clock: %llu frame(s) dropped as time spikes, %llu step(s) back (new time base), %llu jump(s) forward (gaps)\n",
                 static_cast<unsigned long long>(tb.spikes_dropped), static_cast<unsigned long long>(tb.steps_back),
                 static_cast<unsigned long long>(tb.steps_forward));
+  }
+  {
+    size_t incremental = 0;
+    for (size_t i = 0; i + 1 < outcome.history.size(); ++i) incremental += outcome.history[i].fit.chunks_from_prior > 0 ? 1 : 0;
+    const double final_s = outcome.final_estimate ? outcome.final_estimate->fit.solve_seconds : 0.0;
+    std::printf("  time: %.1f s wall; %zu periodic identifications %.1f s (%zu incremental, docs/incremental.md); final fit "
+                "%.1f s (%s)\n",
+                outcome.wall_s, outcome.history.empty() ? 0 : outcome.history.size() - 1, outcome.periodic_fit_wall_s,
+                incremental, final_s, outcome.final_estimate ? outcome.final_estimate->fit.update.c_str() : "none");
   }
   std::printf("  report: %s\n", report_path.c_str());
   if (outcome.periodic_fit_wall_s > 5 && outcome.periodic_fit_wall_s > 0.5 * outcome.wall_s) {

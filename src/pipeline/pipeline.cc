@@ -192,10 +192,21 @@ std::optional<model::Params<double>> Pipeline::WarmStartBase() const {
 }
 
 identify::IdentificationResult Pipeline::Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                                             const std::optional<std::vector<double>>& warm_start) {
+                                             const std::optional<std::vector<double>>& warm_start,
+                                             std::shared_ptr<const identify::LinearizedWindow> prior) {
   identify::Identifier id = identifier;  // the snapshot's standstills, on this thread's copy
   id.set_standstill(snap.standstill);
-  return id.Identify(snap.training, snap.validation, warm_start);
+  const config::IdentificationConfig& c = identifier.config();
+  if (!c.incremental) return id.Identify(snap.training, snap.validation, warm_start);
+  return id.Identify(snap.training, snap.validation, warm_start,
+                     identify::IncrementalUpdate{std::move(prior), c.relinearize_sigma, true});
+}
+
+std::shared_ptr<const identify::LinearizedWindow> Pipeline::Prior() const {
+  const config::IdentificationConfig& c = config_.identification;
+  if (!c.incremental || !linearized_) return nullptr;
+  if (c.full_refit_every > 0 && linearized_->updates_since_full + 1 >= c.full_refit_every) return nullptr;
+  return linearized_;
 }
 
 const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit) {
@@ -211,6 +222,10 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   e.standstill_stops = snap.standstill.size();
   for (const auto& st : snap.standstill) e.standstill_seconds += st.seconds;
   e.standstill = identify::Identifier::StandstillPriors(snap.standstill, {});
+  // The next update's prior: this fit's linearisation, or none after a failed fit (the next one
+  // then refits the whole window). Not kept in the estimate and its history.
+  linearized_ = std::move(fit.linearized);
+  fit.linearized.reset();
   e.fit = std::move(fit);
   // Plausibility (docs/monitoring.md): a fit of data that break the kinematics, or an EG that is
   // unphysical or undetermined, is published as not valid, with the checks' words as reason.
@@ -261,9 +276,9 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   return history_.back();
 }
 
-const Estimate& Pipeline::IdentifyNow() {
+const Estimate& Pipeline::IdentifyNow(bool full) {
   const WindowSnapshot snap = Snapshot();
-  return Accept(snap, Fit(identifier_, snap, WarmStart()));
+  return Accept(snap, Fit(identifier_, snap, WarmStart(), full ? nullptr : Prior()));
 }
 
 }  // namespace ndsid::pipeline

@@ -266,10 +266,12 @@ struct Daemon::Impl {
     Job j;
     j.snap = std::make_shared<const pipeline::WindowSnapshot>(pipe().Snapshot());
     j.started_ns = MonoNs();
-    // The worker owns copies of everything it touches (snapshot, identifier, warm start).
-    j.result = std::async(std::launch::async, [snap = j.snap, identifier = pipe().identifier(), warm = pipe().WarmStart()] {
+    // The worker owns copies of everything it touches (snapshot, identifier, warm start) and shares
+    // the incremental prior, which is immutable.
+    j.result = std::async(std::launch::async, [snap = j.snap, identifier = pipe().identifier(), warm = pipe().WarmStart(),
+                                               prior = pipe().Prior()] {
       try {
-        return pipeline::Pipeline::Fit(identifier, *snap, warm);
+        return pipeline::Pipeline::Fit(identifier, *snap, warm, prior);
       } catch (const std::exception& e) {
         identify::IdentificationResult r;
         r.valid = false;
@@ -289,10 +291,10 @@ struct Daemon::Impl {
     ++identifications;
     if (e.fit.valid) {
       spdlog::info("identification {}: EG {:.4e} rad/(m/s^2) = {:.3f} deg/g (sigma {:.2e}), RMSE {:.3f}/{:.3f} m/s^2, "
-                   "{:.3f} gated h, {} ({:.1f} s)",
+                   "{:.3f} gated h, {} ({:.1f} s, {})",
                    identifications, e.fit.eg_rad_per_mps2, e.fit.eg_deg_per_g, e.fit.eg_se_rad_per_mps2,
                    e.fit.rmse_train_mps2, e.fit.rmse_validation_mps2, e.gated_hours, adequacy::StateName(e.adequacy.state),
-                   (MonoNs() - j.started_ns) * 1e-9);
+                   (MonoNs() - j.started_ns) * 1e-9, e.fit.update);
       monitor->SetParams(e.fit.AsParams());
       SetMonitorModel(e.fit);
     }
@@ -484,7 +486,7 @@ struct Daemon::Impl {
       AcceptJob();
     }
     pipe().Finish();
-    pipe().IdentifyNow();
+    pipe().IdentifyNow(true);  // the final fit: the whole window
     ++identifications;
     final_estimate = pipe().last_estimate();
     const std::string line = FinalLine(final_estimate, pipe());

@@ -47,6 +47,13 @@ LearnedState FromDocument(const nlohmann::json& doc, const std::string& vehicle)
   st.adequacy = in.At("adequacy").raw();
   if (!in.At("estimate").raw().is_null()) st.last_estimate = pipeline::EstimateFromJson(in.At("estimate"));
   st.stops = pipeline::StopsFromJson(in.At("standstill"), kMaxPersistedStops);
+  if (in.Has("linearized") && !in.At("linearized").raw().is_null()) {
+    try {
+      st.linearized = std::make_shared<const identify::LinearizedWindow>(identify::LinearizedWindow::FromJson(in.At("linearized")));
+    } catch (const CodecError& e) {
+      spdlog::warn("state: the incremental prior is dropped ({}); the next identification refits the whole window", e.what());
+    }
+  }
   return st;
 }
 
@@ -90,6 +97,7 @@ std::string EncodeState(const LearnedState& st) {
   doc["adequacy"] = st.adequacy;
   doc["estimate"] = st.last_estimate ? pipeline::EstimateToJson(*st.last_estimate) : nlohmann::json();
   doc["standstill"] = pipeline::StopsToJson(st.stops);
+  if (st.linearized) doc["linearized"] = st.linearized->ToJson();
   const std::string payload = ToCbor(doc);
   char checksum[17];
   std::snprintf(checksum, sizeof checksum, "%016llx", static_cast<unsigned long long>(Fnv1a64(payload)));
@@ -227,6 +235,7 @@ LearnedState CaptureState(const pipeline::Pipeline& pipeline, const config::Conf
   st.adequacy = pipeline.adequacy().ToJson();
   st.last_estimate = pipeline.last_estimate();
   st.stops.assign(pipeline.stops().begin(), pipeline.stops().end());  // at most kMaxPersistedStops
+  st.linearized = pipeline.linearized();  // immutable: shared with the persist thread
   return st;
 }
 
@@ -284,6 +293,7 @@ void RestoreState(pipeline::Pipeline& pipeline, const config::Config& config, co
   pipeline.mutable_adequacy().FromJson(JsonIn(st.adequacy, "state.adequacy"));
   pipeline.RestoreLastEstimate(std::move(last), std::min(st.last_fit_gated_hours, pipeline.accumulator().gated_hours()));
   pipeline.RestoreStops(st.stops);
+  pipeline.RestoreLinearized(st.linearized);
 }
 
 }  // namespace ndsid::service

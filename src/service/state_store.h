@@ -45,6 +45,10 @@ struct LearnedState {
   nlohmann::json adequacy;        // adequacy::Tracker::ToJson()
   std::optional<pipeline::Estimate> last_estimate;
   std::vector<gate::StandstillStop> stops;  // the window's standstill stops (evidence)
+  // The incremental prior (docs/incremental.md); absent in older files and after a failed fit.
+  // A damaged one is dropped with a warning (the next fit then covers the whole window), the
+  // rest of the state is kept.
+  std::shared_ptr<const identify::LinearizedWindow> linearized;
 };
 
 // At most this many stops in a state file: as many as the pipeline keeps.

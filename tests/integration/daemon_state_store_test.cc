@@ -289,6 +289,61 @@ TEST_F(StateTest, RestoreGivesThePipelineTheStops) {
   EXPECT_EQ(again.stops[1].t_start_ns, st.stops[1].t_start_ns);
 }
 
+// The incremental prior (docs/incremental.md) is learned state: it survives the file and reaches
+// the pipeline; a damaged one is dropped alone (the next fit covers the whole window), the rest
+// of the state is kept. Catches: a prior lost on restart, or a bad prior taking the state down.
+TEST_F(StateTest, IncrementalPriorSurvivesAndADamagedOneIsDroppedAlone) {
+  service::LearnedState st = MakeState();
+  auto lw = std::make_shared<identify::LinearizedWindow>();
+  lw->model = "single-track";
+  lw->scale = {1900, 2700, 78000, 122000, 1.15, 14.8};
+  lw->chunk_s = 60;
+  lw->burn_in_s = 1.5;
+  lw->updates_since_full = 4;
+  identify::LinearizedSegment seg;
+  seg.drive_id = 0;
+  seg.t0_ns = 1'000'000;
+  seg.samples = 3000;
+  identify::LinearizedChunk c;
+  c.theta = {1, 1.01, 0.99, 1, 1, 1.02};
+  c.jtj.assign(36, 0.5);
+  for (int i = 0; i < 6; ++i) c.jtj[i * 7] = 3.0 + i;
+  c.score = {0.1, -0.2, 0.3, 0, 0, 0.01};
+  c.rss = 12.5;
+  c.rss_a_y = 12.5;
+  c.n_a_y = 2925;
+  c.acf_a_y.assign(251, 0.01);
+  c.acf_a_y[0] = 12.5;
+  seg.chunks = {c, c};
+  lw->segments = {seg};
+  st.linearized = lw;
+  const std::string bytes = service::EncodeState(st);
+  const service::LearnedState back = service::DecodeState(bytes, config_.vehicle.name);
+  ASSERT_TRUE(back.linearized);
+  EXPECT_EQ(back.linearized->chunks(), 2u);
+  EXPECT_EQ(back.linearized->updates_since_full, 4);
+  EXPECT_EQ(back.linearized->segments[0].chunks[1].jtj, c.jtj);
+  EXPECT_EQ(back.linearized->segments[0].chunks[0].acf_a_y, c.acf_a_y);
+  const dbc::Database db = dbc::ParseDbcFile(config_.dbc);
+  pipeline::Pipeline pipeline(config_, db);
+  std::string dropped;
+  service::RestoreState(pipeline, config_, back, dropped);
+  ASSERT_TRUE(pipeline.linearized());
+  EXPECT_EQ(pipeline.linearized()->chunks(), 2u);
+  EXPECT_EQ(service::CaptureState(pipeline, config_, 3).linearized, pipeline.linearized());
+
+  const std::string damaged = EditDocument(bytes, [](nlohmann::json& d) { d["linearized"]["segments"][0]["chunks"][1]["rss"] = -1.0; });
+  const service::LearnedState kept = service::DecodeState(damaged, config_.vehicle.name);
+  EXPECT_FALSE(kept.linearized);
+  ASSERT_TRUE(kept.last_estimate);
+  EXPECT_EQ(kept.identifications, 3);
+  EXPECT_EQ(kept.accumulator, st.accumulator);
+  // A file without the member (older format 2) loads with no prior.
+  const service::LearnedState older = service::DecodeState(EditDocument(bytes, [](nlohmann::json& d) { d.erase("linearized"); }),
+                                                           config_.vehicle.name);
+  EXPECT_FALSE(older.linearized);
+}
+
 TEST_F(StateTest, FlippedPayloadByteIsCorrupt) {
   std::string bytes = service::EncodeState(MakeState());
   bytes[bytes.size() - 100] ^= 0x01;

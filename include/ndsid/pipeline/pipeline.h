@@ -71,13 +71,25 @@ class Pipeline {
   // Identification is due every identification.period_s of data time once new gated data exist.
   bool IdentificationDue() const;
   WindowSnapshot Snapshot() const;
-  // Fits a snapshot (may run on a worker thread; touches no pipeline state).
+  // Fits a snapshot (may run on a worker thread; touches no pipeline state), incrementally on
+  // top of `prior` (Prior()) when given, else over the whole window; with
+  // identification.incremental the result carries its linearisation for the next update.
   static identify::IdentificationResult Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                                            const std::optional<std::vector<double>>& warm_start);
-  // Records a finished fit: updates adequacy and the last estimate (reading-thread side).
+                                            const std::optional<std::vector<double>>& warm_start,
+                                            std::shared_ptr<const identify::LinearizedWindow> prior = nullptr);
+  // Records a finished fit: updates adequacy, the last estimate and the incremental prior
+  // (reading-thread side).
   const Estimate& Accept(const WindowSnapshot& snap, identify::IdentificationResult fit);
-  // Snapshot + Fit + Accept in one call (the CLI).
-  const Estimate& IdentifyNow();
+  // Snapshot + Fit + Accept in one call (the CLI); full: refit the whole window (the final fit).
+  const Estimate& IdentifyNow(bool full = false);
+  // The prior for the next periodic fit (docs/incremental.md): the last usable fit's
+  // linearisation, or nothing when identification.incremental is off or a full refit is due
+  // (every identification.full_refit_every-th update).
+  std::shared_ptr<const identify::LinearizedWindow> Prior() const;
+  const std::shared_ptr<const identify::LinearizedWindow>& linearized() const { return linearized_; }
+  // Learned state: the prior restored from a persisted state (checked for the model and
+  // scaling by the identifier, which ignores an incompatible one).
+  void RestoreLinearized(std::shared_ptr<const identify::LinearizedWindow> w) { linearized_ = std::move(w); }
 
   const std::optional<Estimate>& last_estimate() const { return last_; }
   const std::vector<Estimate>& history() const { return history_; }
@@ -141,6 +153,7 @@ class Pipeline {
   std::deque<gate::StandstillStop> stops_;
   std::map<int64_t, adequacy::SpeedSums> wheel_speed_;  // per drive of the window (plausibility)  // of the window's drives (older ones are dropped)
   std::optional<Estimate> last_;
+  std::shared_ptr<const identify::LinearizedWindow> linearized_;  // the incremental prior
   std::vector<Estimate> history_;
   std::set<int64_t> implausible_drives_reported_;  // drives whose failed check was logged
   int64_t data_time_ns_ = 0;
