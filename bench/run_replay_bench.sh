@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Replaying HOURS (default 10) of simulated logged driving with the daemon's update schedule
+# (a fit every identification.period_s of data time, incremental: docs/incremental.md) against
+# the same pipeline pass with one fit at the end (--final-only), the periodic schedule with
+# full-window refits (identification.incremental: false), and can-utils `log2asc` converting
+# the same plain candump log. One run each, side by side. Not part of the test suite.
+#   bench/run_replay_bench.sh [HOURS]      (WORK_DIR=/tmp/x keeps and reuses the log)
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+BUILD_DIR="${BUILD_DIR:-${NDSID_BUILD_DIR:-$ROOT/build}}"
+WORK_DIR="${WORK_DIR:-$(mktemp -d)}"
+HOURS="${1:-10}"
+command -v log2asc >/dev/null || { echo "log2asc missing: apt-get install can-utils" >&2; exit 1; }
+cmake --build "$BUILD_DIR" -j2 --target ndsid >/dev/null
+NDSID="$BUILD_DIR/bin/ndsid"
+SIM="$WORK_DIR/sim$HOURS"
+if [[ ! -s "$SIM/drive.log" ]]; then
+  "$NDSID" simulate --hours "$HOURS" --seed 5 --out "$SIM" > /dev/null
+fi
+LOG="$SIM/drive.log"
+FRAMES=$(wc -l < "$LOG")
+# The same configuration with full-window periodic refits.
+sed 's/^  incremental: true /  incremental: false/' "$ROOT/config/example_vehicle.yaml" > "$WORK_DIR/full.yaml"
+grep -q '^  incremental: false' "$WORK_DIR/full.yaml" || { echo "could not switch incremental off" >&2; exit 1; }
+
+run() {  # label, then the ndsid replay arguments; prints the wall time and the replay's time line
+  local label=$1; shift
+  /usr/bin/time -f "%e" -o "$WORK_DIR/time.txt" "$NDSID" replay --log "$LOG" --report "$WORK_DIR/report-$label" "$@" \
+    > "$WORK_DIR/$label.out" 2> "$WORK_DIR/$label.err"
+  printf '%-34s %7.1f s   %s\n' "$label" "$(tail -1 "$WORK_DIR/time.txt")" "$(grep -m1 '  time:' "$WORK_DIR/$label.out" | sed 's/^ *//')"
+  grep -m1 'EG ' "$WORK_DIR/$label.out" | sed 's/^ */    /'
+}
+echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
+echo "log: $HOURS h simulated (seed 5), $FRAMES frames, $(du -h "$LOG" | cut -f1)"
+run final-only --config "$ROOT/config/example_vehicle.yaml" --final-only
+run periodic-incremental --config "$ROOT/config/example_vehicle.yaml"
+run periodic-full --config "$WORK_DIR/full.yaml"
+/usr/bin/time -f "%e" -o "$WORK_DIR/time.txt" log2asc -I "$LOG" -O "$WORK_DIR/drive.asc" can0 > /dev/null
+printf '%-34s %7.1f s\n' "log2asc (convert only)" "$(tail -1 "$WORK_DIR/time.txt")"
