@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "chunk_cost.h"
+#include "quadratic_prior.h"
 
 namespace ndsid::identify {
 
@@ -99,84 +100,6 @@ double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const st
 constexpr double kRelinearizeStep = 0.25;
 constexpr size_t kEgCheckChunks = 32;
 constexpr double kEgCheck = 0.15;
-
-// The sum of the prior's chunk quadratics, sum_c rss_c + 2 s_c'd_c + d_c' H_c d_c (d_c = theta -
-// theta_c), as residuals A theta - c with A'A = H = sum H_c and A'c = b = sum (H_c theta_c - s_c):
-// A = L^(1/2) V' over H's eigenpairs (V, L) above a relative floor.
-// A direction the prior does not determine at all (L_k at the floor, e.g. a fixed parameter's or
-// m's scaling direction when m is free) is held near the start theta0 (the last estimate) with a
-// standard deviation of 1 (the parameter's scale) by a second row sqrt(level) v_k'(theta - theta0),
-// so the solver cannot wander along it.
-class QuadraticPrior final : public ceres::CostFunction {
- public:
-  explicit QuadraticPrior(int np) : np_(np) {
-    set_num_residuals(2 * np);
-    mutable_parameter_block_sizes()->push_back(np);
-  }
-  int weak_directions() const { return weak_; }
-  void Set(const std::vector<const LinearizedChunk*>& chunks, double level, const std::vector<double>& theta0) {
-    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(np_, np_);
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(np_);
-    for (const LinearizedChunk* c : chunks) {
-      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> hc(c->jtj.data(), np_, np_);
-      const Eigen::Map<const Eigen::VectorXd> th(c->theta.data(), np_), sc(c->score.data(), np_);
-      h += hc;
-      b += hc * th - sc;
-    }
-    h = 0.5 * (h + h.transpose());
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(h);
-    const Eigen::VectorXd lambda = es.eigenvalues();
-    const double floor = 1e-12 * std::max(0.0, lambda.maxCoeff());
-    a_ = Eigen::MatrixXd::Zero(2 * np_, np_);
-    c_ = Eigen::VectorXd::Zero(2 * np_);
-    weak_ = 0;
-    const Eigen::Map<const Eigen::VectorXd> t0(theta0.data(), np_);
-    for (int k = 0; k < np_; ++k) {
-      const Eigen::VectorXd v = es.eigenvectors().col(k);
-      double w = 0;
-      if (lambda[k] > floor) {
-        a_.row(k) = std::sqrt(lambda[k]) * v.transpose();
-        c_[k] = v.dot(b) / std::sqrt(lambda[k]);
-      } else if (level > 0) {
-        w = std::sqrt(level);
-      }
-      if (w > 0) {
-        a_.row(np_ + k) = w * v.transpose();
-        c_[np_ + k] = w * v.dot(t0);
-        ++weak_;
-      }
-    }
-  }
-  bool Evaluate(double const* const* p, double* r, double** jac) const override {
-    const Eigen::Map<const Eigen::VectorXd> theta(p[0], np_);
-    Eigen::Map<Eigen::VectorXd>(r, 2 * np_) = a_ * theta - c_;
-    if (jac && jac[0]) Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jac[0], 2 * np_, np_) = a_;
-    return true;
-  }
-
- private:
-  int np_;
-  Eigen::MatrixXd a_;
-  Eigen::VectorXd c_;
-  int weak_ = 0;
-};
-
-// d EG / d theta (scaled parameters) at theta: the base parameters' entries, 0 for fixed ones and
-// for effects.
-Eigen::VectorXd EgGradientTheta(const std::vector<double>& theta, const std::vector<double>& scale, double wheelbase_m,
-                                const std::vector<Bound>& bounds) {
-  using Jet6 = ceres::Jet<double, 6>;
-  model::Params<Jet6> pj{Jet6(theta[0] * scale[0], 0), Jet6(theta[1] * scale[1], 1), Jet6(theta[2] * scale[2], 2),
-                         Jet6(theta[3] * scale[3], 3), Jet6(theta[4] * scale[4], 4), Jet6(theta[5] * scale[5], 5)};
-  const Jet6 eg = model::SelfSteerGradient(pj, wheelbase_m);
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(static_cast<int>(theta.size()));
-  for (int i = 0; i < model::kNumParams; ++i) g[i] = bounds[i].fixed ? 0.0 : eg.v[i] * scale[i];
-  return g;
-}
-
-bool SameSegment(const LinearizedSegment& l, const stats::Segment& s) {
-  return l.drive_id == s.drive_id && l.t0_ns == s.t0_ns && l.samples == s.samples.size();
-}
 
 }  // namespace
 
@@ -769,7 +692,9 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
     const int nf = static_cast<int>(fr.size());
     Eigen::MatrixXd hf(nf, nf);
     Eigen::VectorXd gf(nf), dgf(nf);
-    const Eigen::VectorXd eg_g = EgGradientTheta(theta, scale, wheelbase_m_, bounds);
+    std::vector<bool> fixed_params(static_cast<size_t>(np));
+    for (int i = 0; i < np; ++i) fixed_params[static_cast<size_t>(i)] = bounds[i].fixed;
+    const Eigen::VectorXd eg_g = EgGradientTheta(theta, scale, wheelbase_m_, fixed_params);
     for (int a = 0; a < nf; ++a) {
       gf[a] = eg_g[fr[a]];
       dgf[a] = dg[fr[a]];
