@@ -20,7 +20,9 @@ fi
 LOG="$SIM/drive.log"
 FRAMES=$(wc -l < "$LOG")
 # The same configuration with full-window periodic refits.
-sed 's/^  incremental: true /  incremental: false/' "$ROOT/config/example_vehicle.yaml" > "$WORK_DIR/full.yaml"
+# (Relative paths in a configuration are relative to its folder: the DBC path is made absolute.)
+sed -e 's/^  incremental: true /  incremental: false/' -e "s|^dbc: \.\./|dbc: $ROOT/|" \
+  "$ROOT/config/example_vehicle.yaml" > "$WORK_DIR/full.yaml"
 grep -q '^  incremental: false' "$WORK_DIR/full.yaml" || { echo "could not switch incremental off" >&2; exit 1; }
 
 run() {  # label, then the ndsid replay arguments; prints the wall time and the replay's time line
@@ -32,8 +34,13 @@ run() {  # label, then the ndsid replay arguments; prints the wall time and the 
 }
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
 echo "log: $HOURS h simulated (seed 5), $FRAMES frames, $(du -h "$LOG" | cut -f1)"
-run final-only --config "$ROOT/config/example_vehicle.yaml" --final-only
-run periodic-incremental --config "$ROOT/config/example_vehicle.yaml"
-run periodic-full --config "$WORK_DIR/full.yaml"
+ONLY="${ONLY:-final-only periodic-incremental periodic-full}"   # a subset, e.g. ONLY=periodic-full
+for r in $ONLY; do
+  case $r in
+    final-only) run final-only --config "$ROOT/config/example_vehicle.yaml" --final-only ;;
+    periodic-incremental) run periodic-incremental --config "$ROOT/config/example_vehicle.yaml" ;;
+    periodic-full) run periodic-full --config "$WORK_DIR/full.yaml" ;;
+  esac
+done
 /usr/bin/time -f "%e" -o "$WORK_DIR/time.txt" log2asc -I "$LOG" -O "$WORK_DIR/drive.asc" can0 > /dev/null
 printf '%-34s %7.1f s\n' "log2asc (convert only)" "$(tail -1 "$WORK_DIR/time.txt")"
