@@ -101,6 +101,17 @@ constexpr double kRelinearizeStep = 0.25;
 constexpr size_t kEgCheckChunks = 32;
 constexpr double kEgCheck = 0.15;
 
+// Adds autocorrelation sums (lags 0..kAcfMaxLag) into a pooled vector.
+void AddSums(const std::vector<double>& x, std::vector<double>& pooled) {
+  pooled.resize(kAcfMaxLag + 1, 0.0);
+  for (size_t k = 0; k < x.size() && k < pooled.size(); ++k) pooled[k] += x[k];
+}
+
+// sigma^2 tau of pooled autocorrelation sums over n residuals (acf[0] is their sum of squares).
+double LevelOfSums(const std::vector<double>& acf, double n) {
+  return n > 0 && !acf.empty() ? acf[0] / n * AutocorrelationTimeFromSums(acf) : 0.0;
+}
+
 }  // namespace
 
 model::Params<double> IdentificationResult::AsParams() const {
@@ -420,27 +431,37 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   // prior's own standard deviation from `at` (Mahalanobis distance with the prior's J'J over its
   // noise level sigma^2 tau): they are simulated again.
   // The noise level sigma^2 tau of the prior's (weighted) residuals.
-  auto prior_level = [&]() {
-    std::vector<double> acf(kAcfMaxLag + 1, 0.0);
+  // The prior's autocorrelation sums (both outputs pooled) added into acf; returns its residuals.
+  auto add_prior_sums = [&](std::vector<double>& acf) {
     double n = 0;
     for (const PriorSegment& ps : from_prior) {
       for (const LinearizedChunk& c : ps.lin->chunks) {
-        for (const auto* a : {&c.acf_a_y, &c.acf_yaw_rate})
-          for (size_t k = 0; k < a->size() && k < acf.size(); ++k) acf[k] += (*a)[k];
+        AddSums(c.acf_a_y, acf);
+        AddSums(c.acf_yaw_rate, acf);
         n += c.n_a_y + c.n_yaw_rate;
       }
     }
-    return n > 0 ? acf[0] / n * AutocorrelationTimeFromSums(acf) : 0.0;
+    return n;
   };
-  auto stale_segments = [&](const std::vector<double>& at) {
-    std::vector<size_t> out;
-    if (from_prior.empty()) return out;
+  auto prior_level = [&]() {
+    std::vector<double> acf(kAcfMaxLag + 1, 0.0);
+    const double n = add_prior_sums(acf);
+    return LevelOfSums(acf, n);
+  };
+  // The prior's information sum J'J (theta space).
+  auto prior_jtj = [&]() {
     Eigen::MatrixXd h = Eigen::MatrixXd::Zero(np, np);
     for (const PriorSegment& ps : from_prior) {
       for (const LinearizedChunk& c : ps.lin->chunks) {
         h += Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(c.jtj.data(), np, np);
       }
     }
+    return h;
+  };
+  auto stale_segments = [&](const std::vector<double>& at) {
+    std::vector<size_t> out;
+    if (from_prior.empty()) return out;
+    const Eigen::MatrixXd h = prior_jtj();
     const double level = prior_level();
     if (!(level > 0)) return out;
     const Eigen::Map<const Eigen::VectorXd> x(at.data(), np);
@@ -543,14 +564,8 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
         n += static_cast<double>(e.size());
       }
     }
-    for (const PriorSegment& ps : from_prior) {
-      for (const LinearizedChunk& c : ps.lin->chunks) {
-        for (const auto* x : {&c.acf_a_y, &c.acf_yaw_rate})
-          for (size_t k = 0; k < x->size() && k < acf.size(); ++k) acf[k] += (*x)[k];
-        n += c.n_a_y + c.n_yaw_rate;
-      }
-    }
-    return n > 0 ? acf[0] / n * AutocorrelationTimeFromSums(acf) : 0.0;
+    n += add_prior_sums(acf);
+    return LevelOfSums(acf, n);
   };
   // Unweighted noise levels (sigma^2 tau) of each output at theta; sets the weights from them.
   double level_a = 0, level_r = 0;
@@ -658,11 +673,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
     if (all.empty()) return true;
     const size_t step = std::max<size_t>(1, all.size() / kEgCheckChunks);
     Eigen::VectorXd dg = Eigen::VectorXd::Zero(np);
-    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(np, np);
-    for (const auto& [i, k] : all) {
-      h += Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-          from_prior[i].lin->chunks[k].jtj.data(), np, np);
-    }
+    const Eigen::MatrixXd h = prior_jtj();
     size_t sampled = 0;
     std::map<const stats::Segment*, std::vector<Chunk>> cut_segments;
     for (size_t a = step / 2; a < all.size(); a += step) {
@@ -795,28 +806,24 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
         rss_r += c.rss_yaw_rate;
         n_res += c.n_a_y + c.n_yaw_rate;
         n_res_a += c.n_a_y;
-        for (size_t k = 0; k < c.acf_a_y.size(); ++k) acf_a.resize(kAcfMaxLag + 1), acf_a[k] += c.acf_a_y[k];
-        for (size_t k = 0; k < c.acf_yaw_rate.size(); ++k) acf_r.resize(kAcfMaxLag + 1), acf_r[k] += c.acf_yaw_rate[k];
+        if (!c.acf_a_y.empty()) AddSums(c.acf_a_y, acf_a);
+        if (!c.acf_yaw_rate.empty()) AddSums(c.acf_yaw_rate, acf_r);
         r.train_hours += (c.n_a_y + BurnInSamples(Chunk{nullptr, 0, ps.seg->dt_s, 0, nullptr}, config_.burn_in_s)) *
                          ps.seg->dt_s / 3600.0;
         ++r.chunks_from_prior;
       }
     }
   }
-  // sigma^2 tau of pooled sums (acf[0] is the sum of squares).
-  auto level_of = [](const std::vector<double>& acf, size_t n) {
-    return n && !acf.empty() ? acf[0] / static_cast<double>(n) * AutocorrelationTimeFromSums(acf) : 0.0;
-  };
   r.residuals_train = n_res_a;
   r.residuals_train_yaw = n_res - n_res_a;
   r.chunks = r.chunks_simulated + r.chunks_from_prior;
   r.rmse_train_mps2 = std::sqrt(rss_a / static_cast<double>(n_res_a));
   r.yaw_rate_output = two_outputs;
   if (prior) {
-    r.noise_level_a_y = level_of(acf_a, n_res_a) / (weights->a_y * weights->a_y);
+    r.noise_level_a_y = LevelOfSums(acf_a, static_cast<double>(n_res_a)) / (weights->a_y * weights->a_y);
     if (two_outputs) {
       r.rmse_train_yaw_radps = std::sqrt(rss_r / static_cast<double>(n_res - n_res_a));
-      r.noise_level_yaw_rate = level_of(acf_r, n_res - n_res_a) / (weights->yaw_rate * weights->yaw_rate);
+      r.noise_level_yaw_rate = LevelOfSums(acf_r, static_cast<double>(n_res - n_res_a)) / (weights->yaw_rate * weights->yaw_rate);
     }
   } else if (two_outputs) {
     r.rmse_train_yaw_radps = std::sqrt(rss_r / static_cast<double>(n_res - n_res_a));
@@ -860,8 +867,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   double tau = 0;
   if (prior) {
     std::vector<double> acf = acf_a;
-    acf.resize(kAcfMaxLag + 1, 0.0);
-    for (size_t k = 0; k < acf_r.size(); ++k) acf[k] += acf_r[k];
+    AddSums(acf_r, acf);
     tau = AutocorrelationTimeFromSums(acf);
   } else {
     tau = IntegratedAutocorrelationTime(chunk_residuals);
