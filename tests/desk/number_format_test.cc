@@ -27,7 +27,7 @@ std::string Printf(double v) {
 
 TEST(FormatG10, EqualsPrintfOnEdgeValues) {
   for (double v : {0.0, -0.0, 1.0, -1.0, 0.1, 0.3, 1e-5, 1e-4, 9999999999.0, 1e10, -1e10, 12345678901.0, 1e300,
-                   -1e-300, std::numeric_limits<double>::denorm_min(), std::numeric_limits<double>::max(),
+                   -1e-300, std::numeric_limits<double>::denorm_min(), 3.3e-310, std::numeric_limits<double>::min(), std::numeric_limits<double>::max(),
                    std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}) {
     EXPECT_EQ(Fast(v), Printf(v)) << v;
   }
@@ -54,6 +54,23 @@ TEST(FormatG10, EqualsPrintfOnRandomDoublesOfEveryMagnitude) {
     ASSERT_EQ(Fast(v), Printf(v)) << v;
     const double whole = std::trunc(v);
     ASSERT_EQ(Fast(whole), Printf(whole)) << whole;
+  }
+}
+
+// Decimals of 11 and 12 significant digits: the 11-digit ones ending in 5 are the ties of the
+// shortest digits, where only the exact binary value decides the rounding; the others round
+// the shortest digits, with carries through nines (9.9999999995 -> 10).
+TEST(FormatG10, EqualsPrintfOnTiesAndCarriesOfTheTenthDigit) {
+  std::mt19937_64 rng(13);
+  std::uniform_int_distribution<int> exponent(-25, 25);
+  for (int i = 0; i < 200000; ++i) {
+    const int64_t head = 1000000000 + static_cast<int64_t>(rng() % 9000000000ULL);  // 10 digits
+    const int64_t tail = i % 3 == 0 ? 5 : static_cast<int64_t>(rng() % 100);
+    const int64_t mantissa = i % 3 == 0 ? head * 10 + tail : head * 100 + tail;
+    const double v = static_cast<double>(mantissa) * std::pow(10.0, exponent(rng)) * (i % 2 ? -1 : 1);
+    ASSERT_EQ(Fast(v), Printf(v)) << mantissa;
+    const double nines = (9999999999.0 + static_cast<double>(rng() % 2) * 0.5) * std::pow(10.0, exponent(rng) - 9);
+    ASSERT_EQ(Fast(nines), Printf(nines)) << nines;
   }
 }
 
