@@ -7,6 +7,7 @@ multicast, an LCM log file, lcm-logger/lcm-logplayer, the generated Python and J
 through systemd's notify socket, with SIGKILL/SIGTERM/SIGHUP, and through its state file.
 Exit 0 = pass, 1 = fail, 77 = skipped (the reason is printed).
 """
+import json
 import os
 import random
 import re
@@ -214,6 +215,50 @@ def PublishesEstimatesOverUdpmMatchingFinalEg():
         rms = (sum((m.lat_accel_mps2 - m.lat_accel_model_mps2) ** 2 for m in valid) / len(valid)) ** 0.5
         print(f"monitor: {len(valid)} samples, a_y measured - modelled RMS {rms:.3f} m/s^2")
         check(rms < 0.15, "the model simulated alongside the data does not follow it")
+    finally:
+        case.cleanup()
+
+
+def FoxgloveBridgeCarriesTheDaemonsEstimate():
+    """scripts/ndsid-foxglove beside a running ndsidd: its MCAP recording (what Foxglove shows
+    live) ends on the daemon's final estimate, field for field."""
+    lcm, ndsid = lcm_modules()
+    udpm_or_skip(lcm)
+    try:
+        from mcap.reader import make_reader
+    except ImportError as e:
+        raise Skip(f"the mcap reader is missing ({e}); scripts/setup.sh installs it into .venv")
+    case = Case("foxglove", drives=2, drive_s=200)
+    try:
+        cfg = case.config(period_s=30, monitor_rate_hz=20)
+        rec = os.path.join(case.dir, "live.mcap")
+        bridge = subprocess.Popen(
+            [os.path.join(SOURCE_DIR, "scripts", "ndsid-foxglove"), "--lcm-url", UDPM, "--port", "0", "--mcap", rec,
+             "--estimate-channel", case.prefix + "ESTIMATE", "--status-channel", case.prefix + "STATUS",
+             "--monitor-channel", case.prefix + "MONITOR", "--lcm-types", os.path.join(TYPES_PY, "ndsid")],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        check(bridge.stdout.readline().startswith("ndsid-foxglove: ws://"), "the bridge did not start")
+        p = case.run(cfg, "--speed", "40")
+        time.sleep(0.5)
+        bridge.send_signal(signal.SIGINT)
+        out, _ = bridge.communicate(timeout=20)
+        check(p.returncode == 0, f"ndsidd exit {p.returncode}\n{p.stderr}")
+        check(bridge.returncode == 0 and " 0 undecodable, 0 failed" in out, f"bridge: {out}")
+        eg = final_eg(p.stdout)
+        topics = {}
+        with open(rec, "rb") as f:
+            # In the order the bridge received them (log times are data times; a fit's estimate
+            # carries the data time of its window, not of its publication).
+            for _, channel, message in make_reader(f).iter_messages(log_time_order=False):
+                topics.setdefault(channel.topic, []).append(json.loads(message.data))
+        check(set(topics) == {"/ndsid/estimate", "/ndsid/status", "/ndsid/monitor"}, f"topics {sorted(topics)}")
+        last = topics["/ndsid/estimate"][-1]
+        print(f"recorded: {len(topics['/ndsid/estimate'])} estimates, {len(topics['/ndsid/status'])} status, "
+              f"{len(topics['/ndsid/monitor'])} monitor; last EG {last['eg_rad_per_mps2']:.9e}, printed {eg:.9e}")
+        check(last["valid"] and close(last["eg_rad_per_mps2"], eg, 1e-8), "the recorded EG is not the final one")
+        check(set(last["params"]) == {"m", "Jz", "cv", "ch", "lv", "is"}, f"params {sorted(last['params'])}")
+        check(last["params"]["m"]["fixed"] is True, "m is fixed")
+        check(any(m["model_valid"] for m in topics["/ndsid/monitor"]), "no monitor sample with the model")
     finally:
         case.cleanup()
 

@@ -1,0 +1,167 @@
+#!/usr/bin/env python3
+"""scripts/ndsid-foxglove end to end: LCM messages of the ndsid types published on a private
+udpm group reach a Foxglove WebSocket client (the Foxglove protocol, foxglove.sdk.v1,
+spoken by the `websockets` client as the Foxglove app speaks it) field for field, with the
+derived `params` object; a damaged message is counted and does not stop the bridge; the MCAP
+recording holds the same messages (read with the `mcap` reader). Exit 77 (skipped) when the
+generated LCM types, the Python packages or multicast loopback are missing."""
+import json
+import os
+import select
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+
+SRC = os.environ.get("NDSID_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
+TYPES_PY = os.environ.get("NDSID_LCMTYPES_PYTHONPATH", "")
+BRIDGE = os.path.join(SRC, "scripts", "ndsid-foxglove")
+
+
+def skip(why):
+    print(f"SKIPPED: {why}")
+    sys.exit(77)
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def main():
+    if not TYPES_PY or not os.path.exists(os.path.join(TYPES_PY, "ndsid", "estimate_t.py")):
+        skip(f"generated Python LCM types not found ({TYPES_PY or 'NDSID_LCMTYPES_PYTHONPATH not set'})")
+    try:
+        import lcm
+        from mcap.reader import make_reader
+        from websockets.sync.client import connect
+    except ImportError as e:
+        skip(f"a Python package is missing ({e}); scripts/setup.sh installs it into .venv")
+    sys.path.insert(0, TYPES_PY)
+    from ndsid import estimate_t, monitor_t, status_t  # the generated LCM types
+
+    url = f"udpm://239.255.76.67:{7700 + os.getpid() % 200}?ttl=0"
+    lc = lcm.LCM(url)
+    got = []
+    lc.subscribe("NDSID_PROBE", lambda c, d: got.append(d))
+    lc.publish("NDSID_PROBE", b"probe")
+    deadline = time.time() + 2
+    while not got and time.time() < deadline:
+        if select.select([lc.fileno()], [], [], 0.2)[0]:
+            lc.handle()
+    if not got:
+        skip("UDP multicast does not loop back here (ip link set lo multicast on; ip route add 239.0.0.0/8 dev lo)")
+
+    est = estimate_t()
+    est.utime = 1_709_537_400_000_000
+    est.publish_utime = int(time.time() * 1e6)
+    est.vehicle = "example-cmax"
+    est.identifications = 7
+    est.valid = True
+    est.reason = ""
+    est.eg_rad_per_mps2 = 0.0073125
+    est.eg_sigma_rad_per_mps2 = 0.00012
+    est.eg_deg_per_g = 4.1103
+    est.eg_sigma_deg_per_g = 0.0675
+    names = ["m", "Jz", "cv", "ch", "lv", "is"]
+    est.num_params = len(names)
+    est.param_name = names
+    est.param_unit = ["kg", "kg m^2", "N/rad", "N/rad", "m", "-"]
+    est.param_value = [1520.0, 2510.5, 98765.4, 123456.7, 1.13, 15.9]
+    est.param_sigma = [0.0, 40.1, 812.0, 955.5, 0.0, 0.07]
+    est.param_fixed = [True, False, False, False, True, False]
+    est.param_at_bound = [False] * 6
+    for field in estimate_t.__slots__:  # the rest at their defaults, whatever this version holds
+        if not hasattr(est, field):
+            setattr(est, field, getattr(estimate_t(), field))
+    mon = monitor_t()
+    mon.utime = est.utime + 20_000
+    mon.lat_accel_mps2, mon.lat_accel_model_mps2 = 1.25, 1.21
+    mon.yaw_rate_radps, mon.yaw_rate_model_radps = 0.061, 0.060
+    mon.speed_mps, mon.steer_rad = 20.5, 0.31
+    mon.model_valid, mon.verdict = True, "accepted"
+    st = status_t()
+    st.utime = est.utime
+    st.vehicle, st.source, st.source_state = "example-cmax", "test", "OK"
+    st.frames_read = 123456
+
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = os.path.join(tmp, "live.mcap")
+        port = free_port()
+        bridge = subprocess.Popen([BRIDGE, "--lcm-url", url, "--port", str(port), "--mcap", rec],
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        try:
+            line = bridge.stdout.readline()
+            assert line.startswith("ndsid-foxglove: ws://"), line
+            ws = connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"], open_timeout=10)
+            topics = {}
+            deadline = time.time() + 20
+            # Channels are advertised when their first message arrives: publish until all three are.
+            while len(topics) < 3 and time.time() < deadline:
+                lc.publish("NDSID_ESTIMATE", est.encode())
+                lc.publish("NDSID_MONITOR", mon.encode())
+                lc.publish("NDSID_STATUS", st.encode())
+                try:
+                    m = ws.recv(timeout=0.3)
+                except TimeoutError:
+                    continue
+                if isinstance(m, str):
+                    op = json.loads(m)
+                    if op.get("op") == "advertise":
+                        for ch in op["channels"]:
+                            topics[ch["topic"]] = ch
+            assert set(topics) == {"/ndsid/estimate", "/ndsid/monitor", "/ndsid/status"}, topics
+            assert topics["/ndsid/estimate"]["encoding"] == "json"
+            schema = json.loads(topics["/ndsid/estimate"]["schema"])
+            assert schema["properties"]["eg_deg_per_g"] == {"type": "number"}
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": i, "channelId": topics[t]["id"]} for i, t in enumerate(sorted(topics), start=1)]}))
+            by_sub = {i: t for i, t in enumerate(sorted(topics), start=1)}
+            lc.publish("NDSID_ESTIMATE", b"\x00garbage")  # damaged: counted, not fatal
+            received = {}
+            deadline = time.time() + 20
+            while len(received) < 3 and time.time() < deadline:
+                lc.publish("NDSID_ESTIMATE", est.encode())
+                lc.publish("NDSID_MONITOR", mon.encode())
+                lc.publish("NDSID_STATUS", st.encode())
+                try:
+                    m = ws.recv(timeout=0.3)
+                except TimeoutError:
+                    continue
+                if isinstance(m, bytes) and m[0] == 0x01:
+                    sub, log_time = struct.unpack_from("<IQ", m, 1)
+                    received[by_sub[sub]] = (log_time, json.loads(m[13:]))
+            assert set(received) == set(topics), received.keys()
+            log_time, e = received["/ndsid/estimate"]
+            assert log_time == est.utime * 1000  # the data time, in ns
+            assert e["eg_deg_per_g"] == est.eg_deg_per_g and e["eg_rad_per_mps2"] == est.eg_rad_per_mps2
+            assert e["param_value"] == est.param_value and e["vehicle"] == "example-cmax" and e["valid"] is True
+            assert e["params"]["cv"] == {"value": 98765.4, "sigma": 812.0, "unit": "N/rad", "fixed": False,
+                                         "at_bound": False}
+            _, mo = received["/ndsid/monitor"]
+            assert mo["lat_accel_model_mps2"] == 1.21 and mo["verdict"] == "accepted"
+            assert received["/ndsid/status"][1]["frames_read"] == 123456
+            ws.close()
+        finally:
+            bridge.send_signal(signal.SIGINT)
+            out, _ = bridge.communicate(timeout=20)
+        assert bridge.returncode == 0, out
+        assert "1 undecodable" in out, out
+        forwarded = int(out.split("ndsid-foxglove: ")[-1].split(" messages forwarded")[0])
+        assert forwarded >= 6, out
+        with open(rec, "rb") as f:
+            recorded = {}
+            for _, channel, message in make_reader(f).iter_messages():
+                recorded.setdefault(channel.topic, []).append(json.loads(message.data))
+        assert set(recorded) == set(topics), recorded.keys()
+        assert sum(len(v) for v in recorded.values()) == forwarded
+        assert recorded["/ndsid/estimate"][0]["params"]["is"]["value"] == 15.9
+    print(f"OK: 3 topics live and recorded, {forwarded} messages forwarded, 1 damaged message counted")
+
+
+if __name__ == "__main__":
+    main()
