@@ -22,6 +22,7 @@ DEB_PACKAGES=(
   libjchart2d-java xvfb file unzip          # ndsid-lcm-spy's charts; tests/package (xvfb-run, dpkg-deb checks)
   clang libfuzzer-14-dev libclang-rt-14-dev       # scripts/fuzz.sh (libFuzzer, ASan, UBSan)
   qemu-system-x86 linux-image-amd64 busybox-static   # tests/vm: the VM test bed
+  chromium                                 # ReportRendersInHeadlessChromium (the HTML report in a real browser)
   python3 python3-venv python3-pip
 )
 

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "command_registry.h"
+#include "html_report.h"
 #include "ndsid/identify/result_codec.h"
 #include "model_report.h"
 #include "ndsid/model/effect_library.h"
@@ -219,6 +220,16 @@ int Run(const CompareArgs& a) {
   const std::string out = a.out.empty() ? (fs::path(data->config.report_dir) / "compare").string() : a.out;
   const std::string html = WriteComparison(out, *data, c);
   std::printf("\nreport: %s\n", html.c_str());
+  {  // the one-page report of what compare knows (html_report.h)
+    HtmlReportInputs page;
+    page.compare_dir = out;
+    page.truth_yaml = TruthBeside(a.logs.empty() ? data->config.source.logs : a.logs);
+    page.title = "ndsid compare: " + data->outcome.name;
+    std::string why;
+    const std::string path = (fs::path(out) / kHtmlReportName).string();
+    if (WriteHtmlReport(path, page, &why)) std::printf("page: %s\n", path.c_str());
+    else std::printf("page not written: %s\n", why.c_str());
+  }
   return 0;
 }
 

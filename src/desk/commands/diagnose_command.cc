@@ -10,6 +10,7 @@
 
 #include "command_registry.h"
 #include "config_edit.h"
+#include "html_report.h"
 #include "model_report.h"
 #include "ndsid/model/effect_library.h"
 #include "ndsid/common/atomic_file.h"
@@ -255,6 +256,16 @@ int Run(const DiagnoseArgs& a) {
   md += "\nFinal effects: " + JoinEffects(final_effects) + "\n";
   WriteFileAtomically((fs::path(out) / "diagnosis.md").string(), md);
   std::printf("\nfinal effects: %s\nreport: %s\n", JoinEffects(final_effects).c_str(), (fs::path(out) / "diagnosis.md").c_str());
+  {  // the one-page report of what diagnose knows (html_report.h)
+    HtmlReportInputs page;
+    page.diagnose_dir = out;
+    page.truth_yaml = TruthBeside(a.logs.empty() ? data->config.source.logs : a.logs);
+    page.title = "ndsid diagnose: " + data->outcome.name;
+    std::string why;
+    const std::string path = (fs::path(out) / kHtmlReportName).string();
+    if (WriteHtmlReport(path, page, &why)) std::printf("page: %s\n", path.c_str());
+    else std::printf("page not written: %s\n", why.c_str());
+  }
 
   if (a.apply) {
     const std::string text = ReadWholeFile(a.config);

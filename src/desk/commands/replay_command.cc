@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "command_registry.h"
+#include "html_report.h"
 #include "ndsid/config/config.h"
 #include "ndsid/config/truth_file.h"
 #include "ndsid/dbc/dbc_parser.h"
@@ -92,8 +93,19 @@ int Run(const ReplayArgs& a) {
     ReplayOutcome out = RunReplay(pipeline, cfg, opt);
     out.name = set.name;
     if (!set.truth.empty()) out.truth_eg = config::ReadTruthEg(set.truth);
-    const std::string report = WriteReport((fs::path(report_root) / set.name).string(), cfg, pipeline, out);
+    const std::string dir = (fs::path(report_root) / set.name).string();
+    const std::string report = WriteReport(dir, cfg, pipeline, out);
     PrintSummary(cfg, pipeline, out, report);
+    if (out.final_estimate) {  // the one-page report of what replay knows (html_report.h)
+      HtmlReportInputs page;
+      page.replay_dir = dir;
+      page.truth_yaml = set.truth.empty() ? TruthBeside(set.logs) : set.truth;
+      page.title = "ndsid replay: " + set.name;
+      std::string why;
+      const std::string path = (fs::path(dir) / kHtmlReportName).string();
+      if (WriteHtmlReport(path, page, &why)) std::printf("  page: %s\n", path.c_str());
+      else std::printf("  page not written: %s\n", why.c_str());
+    }
     if (!out.final_estimate || !out.final_estimate->fit.valid) ++failures;
     for (const std::string& e : out.input_errors) {
       std::fprintf(stderr, "ndsid replay: %s: log not read to its end: %s\n", set.name.c_str(), e.c_str());
