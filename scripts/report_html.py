@@ -119,7 +119,7 @@ def truth_value(truth: dict | None, name: str):
     return None
 
 
-def summary_section(page: Page, est: dict | None, cmp: dict | None, truth: dict | None) -> None:
+def summary_section(page: Page, est: dict | None, cmp: dict | None, dia: dict | None, truth: dict | None) -> None:
     page.section("summary", "Summary")
     rows = []
     if est:
@@ -135,6 +135,10 @@ def summary_section(page: Page, est: dict | None, cmp: dict | None, truth: dict 
         for m in cmp.get("models", []):
             rows.append([f"EG (compare, {esc(m.get('label'))})", f"{num(m.get('eg_deg_per_g'), '{:.4f}')} ± {num(m.get('eg_se_deg_per_g'), '{:.4f}')} deg/g",
                          esc(m.get("model", ""))])
+    if dia and dia.get("ladder"):
+        top = dia["ladder"][-1]
+        rows.append(["EG (diagnose, the ladder's last rung)", f"{num(top.get('eg_deg_per_g'), '{:.4f}')} ± "
+                     f"{num(top.get('eg_se_deg_per_g'), '{:.4f}')} deg/g", esc(top.get("model", ""))])
     if truth:
         eg_t = truth.get("vehicle", {}).get("self_steer_gradient_rad_per_mps2")
         if eg_t is not None:
@@ -365,8 +369,9 @@ def main(argv=None) -> int:
                 truth = yaml.safe_load(f)
         est = estimate_of(a.replay)
         cmp = read_json(os.path.join(a.compare, "summary.json")) if a.compare and os.path.exists(os.path.join(a.compare, "summary.json")) else None
+        dia = read_json(os.path.join(a.diagnose, "diagnosis.json")) if a.diagnose and os.path.exists(os.path.join(a.diagnose, "diagnosis.json")) else None
         page = Page(a.title)
-        summary_section(page, est, cmp, truth)
+        summary_section(page, est, cmp, dia, truth)
         if est:
             model_section(page, est, truth)
         if a.replay:
