@@ -513,8 +513,9 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   // With a prior, its weights hold (the outputs must be the same as when it was built).
   size_t chunks_with_yaw = 0;
   for (const Chunk& c : chunks) chunks_with_yaw += c.has_yaw_rate() ? 1 : 0;
-  for (const PriorSegment& ps : from_prior)
-    for (const LinearizedChunk& c : ps.lin->chunks) chunks_with_yaw += c.n_yaw_rate > 0 ? 1 : 0;
+  // A prior segment counts by its data, not by its quadratics: those of a prior built for a_y
+  // alone hold no yaw-rate residuals even where the data have a yaw rate.
+  for (const PriorSegment& ps : from_prior) chunks_with_yaw += ps.seg->has_yaw_rate ? ps.lin->chunks.size() : 0;
   const bool two_outputs = config_.yaw_rate_output && chunks_with_yaw > 0;
   if (prior && two_outputs != (prior->weight_yaw_rate > 0)) {
     IncrementalUpdate whole = *update;
