@@ -125,6 +125,9 @@ bool Mf4DataStream::Refill() noexcept {
       const uint64_t at = pending_.front();
       pending_.pop_front();
       block_offset_ = at;
+      // Every data block is linked once; a link back (a DL list or HL pointing at a block read
+      // before) would repeat the same records forever.
+      if (!visited_.insert(at).second) return Fail("a data block list links back to a block read before (a loop)");
       std::string why;
       auto b = ReadMf4Block(*file_, at, false, why);
       if (!b) return Fail(why);

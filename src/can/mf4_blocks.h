@@ -7,6 +7,7 @@
 #include <deque>
 #include <optional>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 namespace ndsid::can::detail {
@@ -65,6 +66,7 @@ class Mf4DataStream {
 
   const Mf4File* file_;
   std::deque<uint64_t> pending_;  // blocks still to visit (DT, DZ, DL, HL)
+  std::unordered_set<uint64_t> visited_;  // blocks read: a list that links back is refused, not looped
   std::vector<uint8_t> buffer_;   // current piece
   size_t pos_ = 0;
   uint64_t dt_next_ = 0, dt_left_ = 0;  // the unread part of a DT block in the file

@@ -115,6 +115,7 @@ class Mf4Reader final : public FrameLogBase {
     if (!hd || !hd->Is("##HD") || hd->data.size() < 8) throw Error("MF4 log " + path + ": no header block: " + why);
     start_ns_ = static_cast<int64_t>(U64(hd->data.data()));
     for (uint64_t dg_at = hd->Link(0), n = 0; dg_at != 0 && n < 100000; ++n) {
+      if (!linked_.insert(dg_at).second) throw Error("MF4 log " + path + ": the data group list loops back to byte " + std::to_string(dg_at));
       auto dg = ReadMf4Block(file_, dg_at, true, why);
       if (!dg || !dg->Is("##DG")) throw Error("MF4 log " + path + ": bad data group: " + why);
       AddDataGroup(*dg);
@@ -141,6 +142,9 @@ class Mf4Reader final : public FrameLogBase {
   Mf4File file_;
   int64_t start_ns_ = 0;
   bool found_can_group_ = false;
+  // Offsets of the DG, CG and CN blocks read: each belongs to one list, so a link back to one is
+  // a loop (a crafted file), refused instead of read again and again.
+  std::unordered_set<uint64_t> linked_;
   std::vector<Cursor> cursors_;
 };
 
@@ -155,6 +159,7 @@ std::string Mf4Reader::Text(uint64_t at) {
 
 void Mf4Reader::CollectChannels(uint64_t cn_at, Group& g, bool& is_can, int depth) {
   for (int n = 0; cn_at != 0 && n < 10000 && depth < 4; ++n) {
+    if (!linked_.insert(cn_at).second) throw Error("MF4 log " + path() + ": a channel list loops back to byte " + std::to_string(cn_at));
     std::string why;
     auto cn = ReadMf4Block(file_, cn_at, true, why);
     if (!cn || !cn->Is("##CN") || cn->data.size() < 16) return;
@@ -228,6 +233,7 @@ void Mf4Reader::AddDataGroup(const Mf4Block& dg) {
   }
   std::string why;
   for (uint64_t cg_at = dg.Link(1), n = 0; cg_at != 0 && n < 10000; ++n) {
+    if (!linked_.insert(cg_at).second) throw Error("MF4 log " + path() + ": a channel group list loops back to byte " + std::to_string(cg_at));
     auto cg = ReadMf4Block(file_, cg_at, true, why);
     if (!cg || !cg->Is("##CG")) throw Error("MF4 log " + path() + ": bad channel group: " + why);
     Group g;

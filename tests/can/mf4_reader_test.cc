@@ -106,6 +106,29 @@ TEST(Mf4Reader, FileCutBeforeItsMetadataCannotBeOpened) {
   }
 }
 
+// Found by the mf4 fuzz target (a timeout, tests/fuzz/regressions/mf4/timeout-c987...): a data
+// group list whose next link points back made the reader walk it up to its count limit,
+// 100 000 copies of the same group, each read in full. Every DG, CG and CN block belongs to one
+// list, so a link back is refused with the byte it points at.
+TEST(Mf4Reader, AListThatLinksBackIsRefusedNotReadAgain) {
+  TempDir dir;
+  std::string bytes = ReadFile(kCorpus + "asammdf_dt.mf4");
+  uint64_t dg = 0;
+  std::memcpy(&dg, bytes.data() + 64 + 24, 8);  // HD's first link: the first data group
+  ASSERT_GT(dg, 64u);
+  std::memcpy(bytes.data() + dg + 24, &dg, 8);  // the group's next-DG link: itself
+  WriteFile(dir.File("loop.mf4"), bytes);
+  try {
+    OpenFrameLog(dir.File("loop.mf4"));
+    ADD_FAILURE() << "a looping data group list was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("loops back to byte " + std::to_string(dg)), std::string::npos) << e.what();
+  }
+  // The fuzzer's input: refused at once, not after minutes.
+  const std::string found = std::string(NDSID_SOURCE_DIR) + "/tests/fuzz/regressions/mf4/timeout-c987855db25bcad9209264492afe79d891eedfeb";
+  EXPECT_THROW(OpenFrameLog(found), Error);
+}
+
 TEST(Mf4Reader, FileWithoutBusLoggingSaysSo) {
   TempDir dir;
   // ID block + an HD block without data groups: an MF4 file, but not bus logging.
