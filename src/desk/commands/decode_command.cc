@@ -2,6 +2,10 @@
 // one row per signal value). Malformed lines, unknown ids and short frames are counted and
 // summarised on stderr at the end.
 #include <charconv>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
@@ -102,6 +106,65 @@ char* WriteTime(int64_t ns, char* p) {
   return p;
 }
 
+// One decoded value on its way from the reader to the writer thread.
+struct Row {
+  int64_t t_ns;
+  int32_t signal;
+  double value;
+};
+
+// Batches of rows handed from the reading thread to the writing thread: at most kInFlight full
+// batches wait, so memory stays bounded whatever the log's size; emptied batches come back.
+class RowQueue {
+ public:
+  static constexpr size_t kRows = 1 << 16;
+  static constexpr size_t kInFlight = 4;
+  std::vector<Row> Empty() {
+    std::unique_lock<std::mutex> lock(mu_);
+    if (free_.empty()) {
+      std::vector<Row> b;
+      b.reserve(kRows);
+      return b;
+    }
+    std::vector<Row> b = std::move(free_.back());
+    free_.pop_back();
+    return b;
+  }
+  void Push(std::vector<Row>&& b) {
+    std::unique_lock<std::mutex> lock(mu_);
+    room_.wait(lock, [&] { return full_.size() < kInFlight; });
+    full_.push_back(std::move(b));
+    ready_.notify_one();
+  }
+  void Close() {
+    std::unique_lock<std::mutex> lock(mu_);
+    closed_ = true;
+    ready_.notify_one();
+  }
+  // The next full batch; false once closed and drained.
+  bool Pop(std::vector<Row>& b) {
+    std::unique_lock<std::mutex> lock(mu_);
+    ready_.wait(lock, [&] { return !full_.empty() || closed_; });
+    if (full_.empty()) return false;
+    b = std::move(full_.front());
+    full_.pop_front();
+    room_.notify_one();
+    return true;
+  }
+  void Recycle(std::vector<Row>&& b) {
+    b.clear();
+    std::unique_lock<std::mutex> lock(mu_);
+    free_.push_back(std::move(b));
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable ready_, room_;
+  std::deque<std::vector<Row>> full_;
+  std::vector<std::vector<Row>> free_;
+  bool closed_ = false;
+};
+
 int Run(const DecodeArgs& a) {
   const dbc::Database db = dbc::ParseDbcFile(a.dbc);
   const std::vector<dbc::SignalSelector> selection = Select(db, a);
@@ -119,7 +182,36 @@ int Run(const DecodeArgs& a) {
   for (const auto& sel : decoder.signals()) names.push_back(sel.message->name + "," + sel.signal->name + ",");
   CsvOut csv(stdout);
   csv.Append("t,message,signal,value\n");
-  char time_text[48];
+  // Two threads: this one reads and decodes, the writer formats and writes (each about half
+  // of the work; bench/run_decode_csv_bench.sh). The rows keep their order.
+  RowQueue queue;
+  std::thread writer([&] {
+    std::vector<Row> batch;
+    char time_text[48];
+    size_t time_len = 0;
+    int64_t time_of_text = 0;
+    bool have_time = false;
+    while (queue.Pop(batch)) {
+      for (const Row& r : batch) {
+        if (!have_time || r.t_ns != time_of_text) {  // a frame's values share its time stamp
+          time_len = static_cast<size_t>(WriteTime(r.t_ns, time_text) - time_text);
+          time_of_text = r.t_ns;
+          have_time = true;
+        }
+        const std::string& name = names[static_cast<size_t>(r.signal)];
+        char* p = csv.Reserve(time_len + name.size() + 32);
+        std::memcpy(p, time_text, time_len);
+        p += time_len;
+        std::memcpy(p, name.data(), name.size());
+        p += name.size();
+        p = FormatG10(p, r.value);  // exactly printf's %.10g, from the shortest digits
+        *p++ = '\n';
+        csv.Commit(p);
+      }
+      queue.Recycle(std::move(batch));
+    }
+  });
+  std::vector<Row> batch = queue.Empty();
   for (;;) {
     const can::ReadResult r = reader.Read(frames, 0);
     for (size_t i = 0; i < r.count; ++i) {
@@ -136,23 +228,18 @@ int Run(const DecodeArgs& a) {
         case dbc::DecodeVerdict::kUnknownId: ++n.unknown_id; break;
         case dbc::DecodeVerdict::kNotData: ++n.not_data; break;
       }
-      if (count == 0) continue;
-      const size_t time_len = static_cast<size_t>(WriteTime(f.timestamp_ns, time_text) - time_text);
-      for (size_t k = 0; k < count; ++k) {
-        const std::string& name = names[static_cast<size_t>(out[k].signal_index)];
-        char* p = csv.Reserve(time_len + name.size() + 32);
-        std::memcpy(p, time_text, time_len);
-        p += time_len;
-        std::memcpy(p, name.data(), name.size());
-        p += name.size();
-        p = FormatG10(p, out[k].value);  // exactly printf's %.10g, from the shortest digits
-        *p++ = '\n';
-        csv.Commit(p);
-        ++n.values;
+      for (size_t k = 0; k < count; ++k) batch.push_back({f.timestamp_ns, out[k].signal_index, out[k].value});
+      n.values += count;
+      if (batch.size() >= RowQueue::kRows) {
+        queue.Push(std::move(batch));
+        batch = queue.Empty();
       }
     }
     if (r.state == can::SourceState::kEnd) break;
   }
+  if (!batch.empty()) queue.Push(std::move(batch));
+  queue.Close();
+  writer.join();
   csv.Flush();
   std::fflush(stdout);
   if (csv.write_failed()) {
