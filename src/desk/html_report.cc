@@ -1,9 +1,12 @@
 #include "html_report.h"
 
+#include "model_report.h"
+
 #include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 
@@ -12,8 +15,7 @@ namespace fs = std::filesystem;
 
 bool WriteHtmlReport(const std::string& out_html, const HtmlReportInputs& in, std::string* why_not) {
   const fs::path script = fs::path(NDSID_SOURCE_DIR) / "scripts" / "report_html.py";
-  const char* env = std::getenv("NDSID_PYTHON");
-  const fs::path python = env ? fs::path(env) : fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3";
+  const fs::path python = DeskPython();
   if (!fs::exists(python)) {
     *why_not = "Python not found at " + python.string() + " (run scripts/setup.sh for the venv with plotly)";
     return false;
@@ -57,6 +59,13 @@ bool WriteHtmlReport(const std::string& out_html, const HtmlReportInputs& in, st
     return false;
   }
   return true;
+}
+
+void WriteCommandPage(const std::string& dir, const HtmlReportInputs& inputs, const char* indent) {
+  std::string why;
+  const std::string path = (fs::path(dir) / kHtmlReportName).string();
+  if (WriteHtmlReport(path, inputs, &why)) std::printf("%spage: %s\n", indent, path.c_str());
+  else std::printf("%spage not written: %s\n", indent, why.c_str());
 }
 
 std::string TruthBeside(const std::vector<std::string>& logs) {

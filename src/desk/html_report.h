@@ -25,6 +25,10 @@ inline constexpr const char* kHtmlReportName = "ndsid-report.html";
 // Python: $NDSID_PYTHON or <source>/.venv/bin/python3.
 bool WriteHtmlReport(const std::string& out_html, const HtmlReportInputs& inputs, std::string* why_not);
 
+// Writes the page of one command into its output folder `dir` and says so on stdout
+// ("page: <path>", or "page not written: <why>"); the command's other outputs stand either way.
+void WriteCommandPage(const std::string& dir, const HtmlReportInputs& inputs, const char* indent = "");
+
 // truth.yaml beside the first log, when there is one (simulated drives); else empty.
 std::string TruthBeside(const std::vector<std::string>& logs);
 

@@ -417,10 +417,14 @@ std::string HtmlEscape(const std::string& s) {
   return o;
 }
 
+fs::path DeskPython() {
+  const char* env = std::getenv("NDSID_PYTHON");
+  return env ? fs::path(env) : fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3";
+}
+
 bool RunPlotScript(const std::string& mode, const std::string& dir, std::string* why_not) {
   const fs::path script = fs::path(NDSID_SOURCE_DIR) / "scripts" / "model_report_plots.py";
-  const char* env = std::getenv("NDSID_PYTHON");
-  const fs::path python = env ? fs::path(env) : fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3";
+  const fs::path python = DeskPython();
   if (!fs::exists(python)) {
     *why_not = "Python not found at " + python.string() + " (run scripts/setup.sh for the venv with matplotlib)";
     return false;

@@ -3,6 +3,7 @@
 // operating condition ("where it fails"), and the CSV / HTML / Markdown outputs.
 #pragma once
 
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -114,6 +115,9 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
 void PrintComparison(const Comparison& c);
 
 // Runs scripts/model_report_plots.py <mode> <dir> in the project venv; false with the reason when not.
+// The Python the desk's plot and report scripts run with: $NDSID_PYTHON, else the project venv's.
+std::filesystem::path DeskPython();
+
 bool RunPlotScript(const std::string& mode, const std::string& dir, std::string* why_not);
 
 std::string HtmlEscape(const std::string& s);

@@ -225,10 +225,7 @@ int Run(const CompareArgs& a) {
     page.compare_dir = out;
     page.truth_yaml = TruthBeside(a.logs.empty() ? data->config.source.logs : a.logs);
     page.title = "ndsid compare: " + data->outcome.name;
-    std::string why;
-    const std::string path = (fs::path(out) / kHtmlReportName).string();
-    if (WriteHtmlReport(path, page, &why)) std::printf("page: %s\n", path.c_str());
-    else std::printf("page not written: %s\n", why.c_str());
+    WriteCommandPage(out, page);
   }
   return 0;
 }

@@ -261,10 +261,7 @@ int Run(const DiagnoseArgs& a) {
     page.diagnose_dir = out;
     page.truth_yaml = TruthBeside(a.logs.empty() ? data->config.source.logs : a.logs);
     page.title = "ndsid diagnose: " + data->outcome.name;
-    std::string why;
-    const std::string path = (fs::path(out) / kHtmlReportName).string();
-    if (WriteHtmlReport(path, page, &why)) std::printf("page: %s\n", path.c_str());
-    else std::printf("page not written: %s\n", why.c_str());
+    WriteCommandPage(out, page);
   }
 
   if (a.apply) {

@@ -101,10 +101,7 @@ int Run(const ReplayArgs& a) {
       page.replay_dir = dir;
       page.truth_yaml = set.truth.empty() ? TruthBeside(set.logs) : set.truth;
       page.title = "ndsid replay: " + set.name;
-      std::string why;
-      const std::string path = (fs::path(dir) / kHtmlReportName).string();
-      if (WriteHtmlReport(path, page, &why)) std::printf("  page: %s\n", path.c_str());
-      else std::printf("  page not written: %s\n", why.c_str());
+      WriteCommandPage(dir, page, "  ");
     }
     if (!out.final_estimate || !out.final_estimate->fit.valid) ++failures;
     for (const std::string& e : out.input_errors) {
