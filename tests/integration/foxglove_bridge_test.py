@@ -89,6 +89,11 @@ def main():
     st.vehicle, st.source, st.source_state = "example-cmax", "test", "OK"
     st.frames_read = 123456
 
+    def publish_all():
+        lc.publish("NDSID_ESTIMATE", est.encode())
+        lc.publish("NDSID_MONITOR", mon.encode())
+        lc.publish("NDSID_STATUS", st.encode())
+
     with tempfile.TemporaryDirectory() as tmp:
         rec = os.path.join(tmp, "live.mcap")
         port = free_port()
@@ -102,9 +107,7 @@ def main():
             deadline = time.time() + 20
             # Channels are advertised when their first message arrives: publish until all three are.
             while len(topics) < 3 and time.time() < deadline:
-                lc.publish("NDSID_ESTIMATE", est.encode())
-                lc.publish("NDSID_MONITOR", mon.encode())
-                lc.publish("NDSID_STATUS", st.encode())
+                publish_all()
                 try:
                     m = ws.recv(timeout=0.3)
                 except TimeoutError:
@@ -125,9 +128,7 @@ def main():
             received = {}
             deadline = time.time() + 20
             while len(received) < 3 and time.time() < deadline:
-                lc.publish("NDSID_ESTIMATE", est.encode())
-                lc.publish("NDSID_MONITOR", mon.encode())
-                lc.publish("NDSID_STATUS", st.encode())
+                publish_all()
                 try:
                     m = ws.recv(timeout=0.3)
                 except TimeoutError:

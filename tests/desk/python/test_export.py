@@ -1,8 +1,6 @@
 """Interchange files (ndsid.export, python -m ndsid): what is written reads back, with an
 independent reader (pyarrow for Parquet, asammdf for MDF 4), to the values ndsid.decode and
 ndsid.compare return; bad arguments are configuration errors (exit 78)."""
-import gzip
-import itertools
 import os
 import subprocess
 import sys
@@ -18,18 +16,8 @@ from ndsid import export
 
 SRC = ndsid.SOURCE_DIR
 CONFIG = os.path.join(SRC, "config", "example_vehicle.yaml")
-CLEAN = os.path.join(SRC, "replay", "clean", "drive.log.gz")
 STEER_OFFSET = os.path.join(SRC, "replay", "steer_offset", "drive.log.gz")
 DBC = os.path.join(SRC, "dbc", "ndsid_example.dbc")
-
-
-@pytest.fixture(scope="module")
-def head_log(tmp_path_factory):
-    """The first 20 000 frames of the clean drives as a plain candump log."""
-    path = tmp_path_factory.mktemp("log") / "head.log"
-    with gzip.open(CLEAN, "rt") as src, open(path, "w") as dst:
-        dst.writelines(itertools.islice(src, 20000))
-    return str(path)
 
 
 def cli(*args):

@@ -1,8 +1,6 @@
 """The Python package ndsid (docs/python.md) on the bundled data: each call checked against an
 independent oracle (cantools for decoding) or the simulator's truth (truth.yaml), not against
 numbers of its own."""
-import gzip
-import itertools
 import math
 import os
 
@@ -23,15 +21,6 @@ DBC = os.path.join(SRC, "dbc", "ndsid_example.dbc")
 def truth(log):
     with open(os.path.join(os.path.dirname(log), "truth.yaml"), encoding="utf-8") as f:
         return yaml.safe_load(f)
-
-
-@pytest.fixture(scope="module")
-def head_log(tmp_path_factory):
-    """The first 20 000 frames of the clean drives as a plain candump log."""
-    path = tmp_path_factory.mktemp("log") / "head.log"
-    with gzip.open(CLEAN, "rt") as src, open(path, "w") as dst:
-        dst.writelines(itertools.islice(src, 20000))
-    return str(path)
 
 
 def test_load_config_reads_the_vehicle_and_its_roles():
