@@ -320,10 +320,12 @@ def diagnose_section(page: Page, dia_dir: str) -> None:
     trials = d.get("trials", [])
     if trials:
         page.add("<h3>Every candidate tried</h3>\n")
-        page.add(table(["step", "effect", "added", "held-out before", "after", "ΔBIC", "why"],
+        page.add(table(["step", "effect", "added", "held-out before", "after", "ΔBIC", "EG moves", "why"],
                        [[esc(t.get("step")), esc(t.get("effect")), "yes" if t.get("accepted") else "no",
                          num(t.get("held_out_before_mps2"), "{:.4f}"), num(t.get("held_out_after_mps2"), "{:.4f}"),
-                         num(t.get("delta_bic"), "{:.1f}"), esc(t.get("why", ""))] for t in trials],
+                         num(t.get("delta_bic"), "{:.1f}"),
+                         (num(100 * t["eg_shift_rel"], "{:+.2f}") + " %") if t.get("eg_shift_rel") is not None else "–",
+                         esc(t.get("why", ""))] for t in trials],
                        ["added" if t.get("accepted") else "" for t in trials]))
     page.add(f"<p>The ladder stopped: {esc(d.get('stop_reason', ''))}. Final effects: "
              f"<b>{esc(', '.join(d.get('final_effects', [])) or 'none')}</b>.</p>\n")
@@ -335,10 +337,12 @@ def diagnose_section(page: Page, dia_dir: str) -> None:
                          num(r.get("rmse_predicted_mps2"), "{:.4f}"), esc(", ".join(r.get("confounded_with", []))),
                          "yes" if r.get("significant") else "no"] for r in ranking[:15]]))
     verdicts = d.get("verdicts", [])
-    if verdicts:
+    unsettled = d.get("eg_unsettled", "")
+    if verdicts or unsettled:
         red = ' style="color:#b00"'
         page.add("<h3>Verdicts</h3>\n<ul>" + "".join(
-            f"<li{red if v.get('unexplained') else ''}>{esc(v.get('text', ''))}</li>" for v in verdicts) + "</ul>\n")
+            f"<li{red if v.get('unexplained') else ''}>{esc(v.get('text', ''))}</li>" for v in verdicts) +
+            (f"<li{red}>{esc(unsettled)}</li>" if unsettled else "") + "</ul>\n")
 
 
 def truth_section(page: Page, truth: dict, est: dict | None) -> None:

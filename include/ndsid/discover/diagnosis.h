@@ -12,6 +12,7 @@
 #include "ndsid/discover/alignment.h"
 #include "ndsid/identify/identifier.h"
 #include "ndsid/model/effect_library.h"
+#include "ndsid/stats/speed_scale.h"
 
 namespace ndsid::discover {
 
@@ -74,6 +75,31 @@ struct LadderOptions {
   // this much. 3 %: on simulated data a real 1.5 deg steering offset gives 66 %, while the
   // best spurious addition measured gave 2 %.
   double min_relative_improvement = 0.03;
+  // A second way in, with both outputs fitted and only when no candidate met the rule above: an
+  // effect that changes the answer. The tracked road bank absorbs the steady part of a scale error
+  // on a_y (body roll, an accelerometer scale): the model then matches both outputs with EG off by
+  // the error's size, and the effect's refit lowers the held-out RMSEs by little although it is
+  // determined many times over. Such a candidate is added when (all of) neither output's held-out
+  // RMSE rises, one falls by at least eg_relevant_min_improvement, the BIC falls, and EG moves by
+  // more than eg_relevant_shift_sigma of its standard error and more than eg_relevant_shift_rel of
+  // itself (docs/two-outputs.md, "An effect that changes EG"). Of several, the lowest BIC wins.
+  double eg_relevant_min_improvement = 0.01;
+  double eg_relevant_shift_sigma = 5.0;
+  double eg_relevant_shift_rel = 0.01;
+  // The speed signal's scale read against the longitudinal accelerometer (stats/speed_scale.h),
+  // from the training data; the lateral outputs cannot tell a speed scale from an accelerometer
+  // scale. When available it is a prior on speed_scale in every fit of the ladder (value eps,
+  // sd = sqrt(se^2 + speed_scale_prior_floor^2): the floor is the accelerometer's own scale
+  // tolerance, as the evidence measures the speed's scale relative to a_x's), and when eps is more
+  // than speed_scale_add_sigma of that sd from 0, speed_scale is refitted before the first rung
+  // and added unless a held-out RMSE rises by more than 1 % (docs/two-outputs.md).
+  stats::SpeedScaleEvidence speed_scale_evidence;
+  double speed_scale_prior_floor = 0.005;
+  double speed_scale_add_sigma = 3.0;
+  // After the ladder: a candidate refitted at the last rung and not added that moves EG by more
+  // than eg_relevant_shift_rel and this many of its standard errors leaves EG unsettled
+  // (Ladder::eg_unsettled): the data do not decide between two models whose EGs differ.
+  double eg_unsettled_sigma = 3.0;
   DiagnosisOptions diagnosis;
   // Step 0 (physics.md §5): estimate each role's latency relative to a_y and climb the ladder
   // on data shifted by the significant ones.
@@ -120,6 +146,7 @@ struct Trial {
   double held_out_before = 0, held_out_after = 0;          // a_y [m/s^2]
   double yaw_before = -1, yaw_after = -1;                  // yaw rate [rad/s], two outputs only
   double delta_bic = 0;
+  double eg_shift_rel = 0, eg_shift_sigma = 0;  // the refit's EG against the rung's: relative, in the refit's sigma
   std::string why;              // e.g. "held-out RMSE -1.2 % (needs -3 %)", "fit not valid: ..."
 };
 
@@ -132,6 +159,8 @@ struct Ladder {
   bool aligned = false;                    // some latency applied: rungs are fits on shifted data
   identify::IdentificationResult before_alignment;   // the starting model on the data as recorded
   std::vector<OutputVerdict> verdicts;     // the final model's outputs against their noise floors
+  // Empty when EG is settled; else which refits of the last rung move EG, by how much (LadderOptions).
+  std::string eg_unsettled;
 };
 
 // Step 0 (align the roles in time), then base -> + first effect -> + second ...: diagnose,

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 
 #include "command_registry.h"
 #include "config_edit.h"
@@ -110,6 +111,8 @@ int Run(const DiagnoseArgs& a) {
   opt.unexplained_ratio = a.unexplained_ratio;
   opt.align = !a.no_align;
   opt.standstill = data->window.standstill;
+  opt.speed_scale_evidence = stats::EstimateSpeedScale(data->window.training);
+  spdlog::info("{}", opt.speed_scale_evidence.note);
   const discover::Ladder ladder = discover::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
                                                              start, data->pipeline->library(), data->window.training,
                                                              data->window.validation, opt);
@@ -123,6 +126,11 @@ int Run(const DiagnoseArgs& a) {
   j["start_effects"] = start;
   j["final_effects"] = final_effects;
   j["stop_reason"] = ladder.stop_reason;
+  {
+    const stats::SpeedScaleEvidence& e = opt.speed_scale_evidence;
+    j["speed_scale_evidence"] = {{"available", e.available}, {"scale", e.scale}, {"se", e.se}, {"chunks", e.chunks},
+                                 {"samples", e.samples}, {"note", e.note}};
+  }
   std::printf("diagnose %s: start %s, %zu training / %zu held-out segments\n", data->outcome.name.c_str(),
               JoinEffects(start).c_str(), data->window.training.size(), data->window.validation.size());
   // Step 0: the roles' latencies relative to a_y (already-configured latencies are in the data).
@@ -158,6 +166,10 @@ int Run(const DiagnoseArgs& a) {
       md += "\nNo latency applied: the ladder works on the data as recorded.\n\n";
     }
   }
+  // The speed signal's scale against a_x: evidence the lateral outputs cannot give.
+  std::printf("\n%s\n", opt.speed_scale_evidence.note.c_str());
+  md += "Speed scale: " + opt.speed_scale_evidence.note +
+        (opt.speed_scale_evidence.available ? " (a prior on speed_scale in every fit below; docs/two-outputs.md)" : "") + ".\n\n";
   if (!ladder.diagnoses.empty()) {
     const discover::Diagnosis& d = ladder.diagnoses.front();
     std::printf("\nfirst diagnosis of %s: RMSE %.4f m/s^2 over %zu residuals\n", d.model.c_str(), d.rmse, d.residuals);
@@ -228,7 +240,8 @@ int Run(const DiagnoseArgs& a) {
       j["trials"].push_back({{"step", t.step}, {"effect", t.effect}, {"accepted", t.accepted},
                              {"held_out_before_mps2", t.held_out_before}, {"held_out_after_mps2", t.held_out_after},
                              {"yaw_before_radps", t.yaw_before}, {"yaw_after_radps", t.yaw_after},
-                             {"delta_bic", t.delta_bic}, {"why", t.why}});
+                             {"delta_bic", t.delta_bic}, {"eg_shift_rel", t.eg_shift_rel},
+                             {"eg_shift_sigma", t.eg_shift_sigma}, {"why", t.why}});
     }
   }
   // After the ladder: each output's held-out residual against its noise floor.
@@ -242,6 +255,11 @@ int Run(const DiagnoseArgs& a) {
       j["verdicts"].push_back({{"output", v.output}, {"unit", v.unit}, {"rmse", v.rmse}, {"noise_floor", v.floor},
                                {"ratio", v.ratio}, {"residuals", v.residuals}, {"unexplained", v.unexplained}, {"text", v.text}});
     }
+  }
+  j["eg_unsettled"] = ladder.eg_unsettled;
+  if (!ladder.eg_unsettled.empty()) {
+    std::printf("  %s\n", ladder.eg_unsettled.c_str());
+    md += "- **" + ladder.eg_unsettled + "**\n";
   }
   const std::string out = a.out.empty() ? (fs::path(data->config.report_dir) / "diagnose").string() : a.out;
   fs::create_directories(out);
