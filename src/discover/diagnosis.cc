@@ -525,7 +525,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
   const bool has_speed_prior = std::any_of(config.priors.begin(), config.priors.end(),
                                            [](const config::ParameterPrior& p) { return p.name == "speed_scale"; });
   if (sse.available && !has_speed_prior) {
-    const double sd = std::hypot(sse.se, options.speed_scale_prior_floor);
+    const double sd = sse.prior_sd;
     ladder_config.priors.push_back({"speed_scale", sse.scale, sd, "the speed signal against a_x (ndsid diagnose)"});
     const auto& cands = options.diagnosis.candidates;
     const bool candidate = cands.empty() || std::find(cands.begin(), cands.end(), "speed_scale") != cands.end();

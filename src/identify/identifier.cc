@@ -1,4 +1,5 @@
 #include "ndsid/identify/identifier.h"
+#include "ndsid/stats/speed_scale.h"
 #include "ndsid/model/effect_library.h"
 
 #include <ceres/ceres.h>
@@ -623,6 +624,24 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
                     sp.param.c_str(), sp.value, sp.sd, sp.stops, sp.seconds);
       evidence_notes.push_back(note);
     }
+  }
+  // The speed signal's scale read against a_x (stats/speed_scale.h): a prior on speed_scale,
+  // which a_y and r cannot tell from an accelerometer scale. A configured prior wins.
+  const bool speed_configured = std::any_of(config_.priors.begin(), config_.priors.end(),
+                                            [](const config::ParameterPrior& pr) { return pr.name == "speed_scale"; });
+  for (int i = model::kNumParams; i < np && !speed_configured; ++i) {
+    if (spec_.param_name(i) != "speed_scale" || bounds[i].fixed) continue;
+    const stats::SpeedScaleEvidence ev = stats::EstimateSpeedScale(training);
+    if (!ev.available) {
+      evidence_notes.push_back(ev.note + ": no prior on speed_scale from it");
+      break;
+    }
+    priors.push_back(std::make_unique<PriorCost>(np, i, scale[i], ev.scale, ev.prior_sd));
+    problem.AddResidualBlock(priors.back().get(), nullptr, theta.data());
+    char note[320];
+    std::snprintf(note, sizeof note, "%s: a prior on speed_scale, sd %.2g (with the accelerometer's own scale tolerance); "
+                  "its standard error includes it", ev.note.c_str(), ev.prior_sd);
+    evidence_notes.push_back(note);
   }
   double prior_weight = 0;
   if (!priors.empty()) {

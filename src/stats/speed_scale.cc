@@ -81,6 +81,7 @@ SpeedScaleEvidence EstimateSpeedScale(const std::vector<const Segment*>& segment
     return out;
   }
   out.available = true;
+  out.prior_sd = std::hypot(out.se, options.accel_scale_tolerance);
   std::snprintf(buf, sizeof buf, "speed scale against a_x: dv_meas/dt = (1 %+.4f +- %.4f) a_x (%d chunks, %ld samples)",
                 out.scale, out.se, out.chunks, out.samples);
   out.note = buf;

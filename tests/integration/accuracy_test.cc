@@ -70,6 +70,46 @@ TEST(Accuracy, GyroLatencyRecoveredWithTwoOutputs) {
   }
 }
 
+// Catches: a speed scale left to the lateral outputs, where it trades with is and an
+// accelerometer scale (a_y alone: uniqueness 0.00). Any fit of a model with speed_scale reads
+// the speed signal's scale against the longitudinal accelerometer from its training data
+// (stats/speed_scale.h) as a prior: the same data with a_x hidden from the fit are the
+// comparison. Speed scale +3 % and -2 %, a_y alone, 1 h each. Stated tolerances: the scale
+// within 0.01 (the prior's sd is 0.005, the accelerometer's own scale tolerance), EG within 1 %.
+TEST(Accuracy, SpeedScaleReadFromTheLongitudinalAcceleration) {
+  for (const auto& [pct, seed] : {std::pair{3.0, 131u}, std::pair{-2.0, 132u}}) {
+    const SimulatedRun run = SimulateAndReplay("acc_speed_scale", seed, 1.0, {"speed_scale_pct=" + std::to_string(pct)},
+                                               {"road_bank", "speed_scale"});
+    const identify::Identifier& id = run.pipeline->identifier();
+    const auto with = id.Identify(run.window.training, run.window.validation, std::optional<std::vector<double>>{});
+    // The same segments without their a_x: no evidence, speed_scale free.
+    std::vector<stats::Segment> blind;
+    for (const stats::Segment* seg : run.window.training) {
+      blind.push_back(*seg);
+      blind.back().has_long_accel = false;
+    }
+    std::vector<const stats::Segment*> blind_ptrs;
+    for (const auto& seg : blind) blind_ptrs.push_back(&seg);
+    const auto without = id.Identify(blind_ptrs, run.window.validation, std::optional<std::vector<double>>{});
+    ASSERT_TRUE(with.valid) << with.reason;
+    auto eps = [](const identify::IdentificationResult& r) {
+      for (const auto& p : r.effect_params)
+        if (p.name == "speed_scale") return p;
+      ADD_FAILURE() << "speed_scale not in the fit";
+      return identify::ParameterEstimate{};
+    };
+    bool noted = false;
+    for (const auto& n : with.identifiability.notes) noted = noted || n.find("speed scale against a_x") != std::string::npos;
+    EXPECT_TRUE(noted) << "the evidence is named in the identifiability notes";
+    const double err_with = with.eg_rad_per_mps2 / run.eg_truth - 1, err_without = without.eg_rad_per_mps2 / run.eg_truth - 1;
+    std::printf("speed scale %+.1f %%: with a_x %.4f +- %.4f, EG %+.2f %%; without %.4f +- %.4f, EG %+.2f %%\n", pct,
+                eps(with).value, eps(with).se, 100 * err_with, eps(without).value, eps(without).se, 100 * err_without);
+    EXPECT_NEAR(eps(with).value, pct / 100, 0.01);
+    EXPECT_LT(std::abs(err_with), 0.01);
+    EXPECT_LT(eps(with).se, eps(without).se) << "the evidence narrows it";
+  }
+}
+
 // Catches: a speed-offset effect with the wrong sign, unit or place (the speed the dynamics see),
 // and one that the yaw rate cannot pin. The simulator adds the offset to the vehicle speed signal
 // only, while moving; two outputs, 1 h each: no offset, +2 and -3 km/h, and -1.5 km/h together

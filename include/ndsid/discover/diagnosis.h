@@ -88,13 +88,12 @@ struct LadderOptions {
   double eg_relevant_shift_rel = 0.01;
   // The speed signal's scale read against the longitudinal accelerometer (stats/speed_scale.h),
   // from the training data; the lateral outputs cannot tell a speed scale from an accelerometer
-  // scale. When available it is a prior on speed_scale in every fit of the ladder (value eps,
-  // sd = sqrt(se^2 + speed_scale_prior_floor^2): the floor is the accelerometer's own scale
-  // tolerance, as the evidence measures the speed's scale relative to a_x's), and when eps is more
-  // than speed_scale_add_sigma of that sd from 0, speed_scale is refitted before the first rung
-  // and added unless a held-out RMSE rises by more than 1 % (docs/two-outputs.md).
+  // scale. When available it is a prior on speed_scale in every fit of the ladder (value eps, sd
+  // its prior_sd; every fit of a model with speed_scale reads the same prior from its training
+  // data, docs/two-outputs.md), and when eps is more than speed_scale_add_sigma of that sd from 0,
+  // speed_scale is refitted before the first rung and added unless a held-out RMSE rises by more
+  // than 1 %.
   stats::SpeedScaleEvidence speed_scale_evidence;
-  double speed_scale_prior_floor = 0.005;
   double speed_scale_add_sigma = 3.0;
   // After the ladder: a candidate refitted at the last rung and not added that moves EG by more
   // than eg_relevant_shift_rel and this many of its standard errors leaves EG unsettled

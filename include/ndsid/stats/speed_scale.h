@@ -23,12 +23,16 @@ struct SpeedScaleOptions {
   int min_chunks = 10;          // fewer: no evidence
   double min_accel_sd_mps2 = 0.2;  // chunks whose speed hardly changes (sd of dv_meas/dt) carry no scale information
   double max_abs_scale = 0.2;   // |eps| above: the a_x role disagrees with the speed (sign or unit), no evidence
+  // The evidence measures eps - k_ax: the accelerometer's own scale tolerance bounds how well it
+  // knows eps, whatever the data (prior_sd below).
+  double accel_scale_tolerance = 0.005;
 };
 
 struct SpeedScaleEvidence {
   bool available = false;
   double scale = 0;       // eps: dv_meas/dt = (1 + eps) a_x
   double se = 0;          // chunk-clustered
+  double prior_sd = 0;    // sqrt(se^2 + accel_scale_tolerance^2): the sd of the prior it gives speed_scale
   int chunks = 0;
   long samples = 0;
   std::string note;       // why not available, or what it measured
