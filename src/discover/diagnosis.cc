@@ -549,7 +549,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
         t.held_out_after = held_out(f2);
         const bool both = fit.yaw_rate_output && f2.yaw_rate_output;
         if (both) t.yaw_before = held_out_yaw(fit), t.yaw_after = held_out_yaw(f2);
-        t.eg_shift_rel = (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / std::abs(fit.eg_rad_per_mps2);
+        t.eg_shift_rel = fit.eg_rad_per_mps2 != 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / std::abs(fit.eg_rad_per_mps2) : 0.0;
         t.eg_shift_sigma = f2.eg_se_rad_per_mps2 > 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / f2.eg_se_rad_per_mps2 : 0.0;
         t.accepted = t.held_out_after <= 1.01 * t.held_out_before && (!both || t.yaw_after <= 1.01 * t.yaw_before);
         char yaw[48] = "";
