@@ -76,7 +76,8 @@ TEST(Accuracy, GyroLatencyRecoveredWithTwoOutputs) {
 // (stats/speed_scale.h) as a prior: the same data with a_x hidden from the fit are the
 // comparison. Speed scale +3 % and -2 %, a_y alone, 1 h each. Stated tolerances: the scale
 // within 0.01 (the prior's sd is 0.005, the accelerometer's own scale tolerance), EG within 1 %.
-TEST(Accuracy, SpeedScaleReadFromTheLongitudinalAcceleration) {
+// (Not "…Longitudinal…": a name containing "Long" is filtered into the long label.)
+TEST(Accuracy, SpeedScaleReadFromTheForwardAccelerometer) {
   for (const auto& [pct, seed] : {std::pair{3.0, 131u}, std::pair{-2.0, 132u}}) {
     const SimulatedRun run = SimulateAndReplay("acc_speed_scale", seed, 1.0, {"speed_scale_pct=" + std::to_string(pct)},
                                                {"road_bank", "speed_scale"});
