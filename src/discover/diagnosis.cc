@@ -524,6 +524,29 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
   const stats::SpeedScaleEvidence& sse = options.speed_scale_evidence;
   const bool has_speed_prior = std::any_of(config.priors.begin(), config.priors.end(),
                                            [](const config::ParameterPrior& p) { return p.name == "speed_scale"; });
+  // The current model with one more effect, refitted from the current fit, as every trial is.
+  auto refit = [&](const std::vector<std::string>& trial) {
+    Identifier next(ladder_config, wheelbase_m, model::ModelSpec::FromNames(trial, library));
+    next.set_standstill(options.standstill);
+    next.set_drive_loads(fit.drive_loads);  // load_change: start from the current ratios
+    IdentificationResult f2 =
+        next.Identify(training, validation, std::optional<std::vector<double>>(Extend(current.spec(), fit.AllValues(), next.spec())));
+    return std::make_pair(std::move(next), std::move(f2));
+  };
+  // How far a refit moves EG from the current fit: relative, and in the refit's sigma.
+  auto record_eg_shift = [&](Trial& t, const IdentificationResult& f2) {
+    t.eg_shift_rel = fit.eg_rad_per_mps2 != 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / std::abs(fit.eg_rad_per_mps2) : 0.0;
+    t.eg_shift_sigma = f2.eg_se_rad_per_mps2 > 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / f2.eg_se_rad_per_mps2 : 0.0;
+  };
+  // A refit becomes the ladder's next rung.
+  auto climb = [&](const std::vector<std::string>& trial, const Identifier& next, const IdentificationResult& f2,
+                   const std::string& added, double dbic) {
+    effects = trial;
+    current = next;
+    fit = f2;
+    current.set_drive_loads(fit.drive_loads);
+    ladder.rungs.push_back({current.spec().Describe(), added, fit, dbic});
+  };
   if (sse.available && !has_speed_prior) {
     const double sd = sse.prior_sd;
     ladder_config.priors.push_back({"speed_scale", sse.scale, sd, "the speed signal against a_x (ndsid diagnose)"});
@@ -533,11 +556,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
     if (candidate && !in_model && library.Find("speed_scale") && std::abs(sse.scale) > options.speed_scale_add_sigma * sd) {
       std::vector<std::string> trial = effects;
       trial.push_back("speed_scale");
-      Identifier next(ladder_config, wheelbase_m, model::ModelSpec::FromNames(trial, library));
-      next.set_standstill(options.standstill);
-      next.set_drive_loads(fit.drive_loads);
-      const IdentificationResult f2 =
-          next.Identify(training, validation, std::optional<std::vector<double>>(Extend(current.spec(), fit.AllValues(), next.spec())));
+      const auto [next, f2] = refit(trial);
       Trial t;
       t.step = 0;
       t.effect = "speed_scale";
@@ -549,8 +568,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
         t.held_out_after = held_out(f2);
         const bool both = fit.yaw_rate_output && f2.yaw_rate_output;
         if (both) t.yaw_before = held_out_yaw(fit), t.yaw_after = held_out_yaw(f2);
-        t.eg_shift_rel = fit.eg_rad_per_mps2 != 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / std::abs(fit.eg_rad_per_mps2) : 0.0;
-        t.eg_shift_sigma = f2.eg_se_rad_per_mps2 > 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / f2.eg_se_rad_per_mps2 : 0.0;
+        record_eg_shift(t, f2);
         t.accepted = t.held_out_after <= 1.01 * t.held_out_before && (!both || t.yaw_after <= 1.01 * t.yaw_before);
         char yaw[48] = "";
         if (both) std::snprintf(yaw, sizeof yaw, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
@@ -562,13 +580,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       }
       spdlog::info("ladder: + speed_scale: {}", t.why);
       ladder.trials.push_back(t);
-      if (t.accepted) {
-        effects = trial;
-        current = next;
-        fit = f2;
-        current.set_drive_loads(fit.drive_loads);
-        ladder.rungs.push_back({current.spec().Describe(), "speed_scale", fit, 0.0});
-      }
+      if (t.accepted) climb(trial, next, f2, "speed_scale", 0.0);
     }
   }
   for (int step = 0; step < options.max_steps; ++step) {
@@ -591,11 +603,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       ++tried;
       std::vector<std::string> trial = effects;
       trial.push_back(c.effect);
-      Identifier next(ladder_config, wheelbase_m, model::ModelSpec::FromNames(trial, library));
-      next.set_standstill(options.standstill);
-      next.set_drive_loads(fit.drive_loads);  // load_change: start from the current ratios
-      std::vector<double> warm = Extend(current.spec(), fit.AllValues(), next.spec());
-      IdentificationResult f2 = next.Identify(training, validation, std::optional<std::vector<double>>(warm));
+      const auto [next, f2] = refit(trial);
       Trial trial_record;
       trial_record.step = static_cast<int>(ladder.rungs.size()) - 1;  // the rung refitted on
       trial_record.effect = c.effect;
@@ -655,12 +663,8 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       // The EG-relevant rule (LadderOptions): both outputs, neither rises, one falls by 1 %, the
       // BIC falls, EG moves by more than 5 sigma and 1 %.
       bool eg_moves = false;
-      const double eg_shift_rel =
-          fit.eg_rad_per_mps2 != 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / std::abs(fit.eg_rad_per_mps2) : 0.0;
-      const double eg_shift_sigma =
-          f2.eg_se_rad_per_mps2 > 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / f2.eg_se_rad_per_mps2 : 0.0;
-      trial_record.eg_shift_rel = eg_shift_rel;
-      trial_record.eg_shift_sigma = eg_shift_sigma;
+      record_eg_shift(trial_record, f2);
+      const double eg_shift_rel = trial_record.eg_shift_rel, eg_shift_sigma = trial_record.eg_shift_sigma;
       if (both && !trial_record.accepted) {
         const double yb = held_out_yaw(fit), ya = held_out_yaw(f2);
         const double fall = std::max(1.0 - after / before, 1.0 - ya / yb);
@@ -690,11 +694,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       ladder.trials.push_back(trial_record);
       if (eg_moves) eg_relevant.push_back({ladder.trials.size() - 1, dbic, trial, next, f2});
       if (better && dbic < 0) {
-        effects = trial;
-        current = next;
-        fit = f2;
-        current.set_drive_loads(fit.drive_loads);
-        ladder.rungs.push_back({current.spec().Describe(), c.effect, fit, dbic});
+        climb(trial, next, f2, c.effect, dbic);
         improved = true;
         break;
       }
@@ -707,17 +707,13 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
                                          [](const EgRelevant& a, const EgRelevant& b) { return a.dbic < b.dbic; });
       Trial& t = ladder.trials[best->trial];
       t.accepted = true;
-      const std::string detail = t.why.substr(t.why.find("; EG ") + 2);
       char why[320];
-      std::snprintf(why, sizeof why, "added (EG-relevant): held-out RMSE %+.1f %%, yaw rate %+.1f %%, dBIC %.1f; ",
-                    100 * (t.held_out_after / t.held_out_before - 1), 100 * (t.yaw_after / t.yaw_before - 1), t.delta_bic);
-      t.why = why + detail.substr(0, detail.find(", held-out falls"));
+      std::snprintf(why, sizeof why, "added (EG-relevant): held-out RMSE %+.1f %%, yaw rate %+.1f %%, dBIC %.1f; EG %+.2f %% (%+.1f sigma)",
+                    100 * (t.held_out_after / t.held_out_before - 1), 100 * (t.yaw_after / t.yaw_before - 1), t.delta_bic,
+                    100 * t.eg_shift_rel, t.eg_shift_sigma);
+      t.why = why;
       spdlog::info("ladder: + {}: {}", t.effect, t.why);
-      effects = best->effects;
-      current = best->model;
-      fit = best->fit;
-      current.set_drive_loads(fit.drive_loads);
-      ladder.rungs.push_back({current.spec().Describe(), t.effect, fit, t.delta_bic});
+      climb(best->effects, best->model, best->fit, t.effect, t.delta_bic);
       improved = true;
     }
     if (!improved) {
