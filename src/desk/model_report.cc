@@ -1,5 +1,7 @@
 #include "model_report.h"
 
+#include "desk_script.h"
+
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -417,30 +419,8 @@ std::string HtmlEscape(const std::string& s) {
   return o;
 }
 
-fs::path DeskPython() {
-  const char* env = std::getenv("NDSID_PYTHON");
-  return env ? fs::path(env) : fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3";
-}
-
 bool RunPlotScript(const std::string& mode, const std::string& dir, std::string* why_not) {
-  const fs::path script = fs::path(NDSID_SOURCE_DIR) / "scripts" / "model_report_plots.py";
-  const fs::path python = DeskPython();
-  if (!fs::exists(python)) {
-    *why_not = "Python not found at " + python.string() + " (run scripts/setup.sh for the venv with matplotlib)";
-    return false;
-  }
-  if (!fs::exists(script)) {
-    *why_not = "plot script missing: " + script.string();
-    return false;
-  }
-  const fs::path log = fs::path(dir) / "plots.log";
-  const std::string cmd = "'" + python.string() + "' '" + script.string() + "' " + mode + " '" + dir + "' >'" +
-                          log.string() + "' 2>&1";
-  if (std::system(cmd.c_str()) != 0) {
-    *why_not = "the plot script failed, see plots.log";
-    return false;
-  }
-  return true;
+  return RunDeskScript("model_report_plots.py", {mode, dir}, fs::path(dir) / "plots.log", why_not);
 }
 
 }  // namespace ndsid::desk

@@ -114,10 +114,8 @@ BinStats ComputeBin(const std::vector<double>& e, const std::vector<int>& cluste
 Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, std::optional<double> noise_floor);
 void PrintComparison(const Comparison& c);
 
-// Runs scripts/model_report_plots.py <mode> <dir> in the project venv; false with the reason when not.
-// The Python the desk's plot and report scripts run with: $NDSID_PYTHON, else the project venv's.
-std::filesystem::path DeskPython();
-
+// Runs scripts/model_report_plots.py <mode> <dir> in the project venv (output in <dir>/plots.log);
+// false with the reason when not.
 bool RunPlotScript(const std::string& mode, const std::string& dir, std::string* why_not);
 
 std::string HtmlEscape(const std::string& s);

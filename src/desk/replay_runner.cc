@@ -13,6 +13,7 @@
 
 #include "ndsid/can/frame_log.h"
 #include "ndsid/pipeline/estimate_codec.h"
+#include "desk_script.h"
 #include "progress.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/common/error.h"
@@ -225,12 +226,8 @@ std::string WriteReport(const std::string& dir, const config::Config& config, co
   }
   md += "\nFiles: `estimate.json`, `eg_history.csv`, `drives.csv`, `gate.csv`, `coverage.csv`";
   // Plots through the project's venv (optional: the numbers above do not depend on it).
-  const fs::path script = fs::path(NDSID_SOURCE_DIR) / "scripts" / "plot_report.py";
-  const fs::path python = fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3";
-  if (fs::exists(script) && fs::exists(python)) {
-    const std::string cmd = "'" + python.string() + "' '" + script.string() + "' '" + d.string() + "' >/dev/null 2>&1";
-    if (std::system(cmd.c_str()) == 0) md += ", `eg_history.png`, `coverage.png`";
-  }
+  std::string why_not;
+  if (RunDeskScript("plot_report.py", {d.string()}, {}, &why_not)) md += ", `eg_history.png`, `coverage.png`";
   md += "\n";
   WriteText(d / "report.md", md);
   return (d / "report.md").string();

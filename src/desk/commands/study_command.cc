@@ -15,6 +15,7 @@
 #include "ndsid/config/truth_file.h"
 #include "ndsid/dbc/dbc_parser.h"
 #include "ndsid/pipeline/pipeline.h"
+#include "desk_script.h"
 #include "replay_runner.h"
 
 namespace ndsid::desk {
@@ -125,6 +126,10 @@ int Run(const StudyArgs& a) {
   for (const auto& r : results)
     if (std::find(kinds.begin(), kinds.end(), r.kind) == kinds.end()) kinds.push_back(r.kind);
   std::string csv = "set,hours,eg_deg_per_g,eg_se_deg_per_g,rmse_validation,valid\n";
+  // The same table as the terminal's, machine-readable (ndsid.study reads it as a DataFrame).
+  std::string summary_csv =
+      "set,sets,hours_per_set,eg_min,eg_median,eg_max,spread_pct,rmse_validation_min,rmse_validation_median,"
+      "rmse_validation_max,rmse_validation_mean\n";
   for (const auto& r : results) {
     char line[160];
     std::snprintf(line, sizeof line, "%s,%.4f,%.6f,%.6f,%.6f,%d\n", r.kind.c_str(), r.hours, r.eg_deg_per_g,
@@ -148,6 +153,10 @@ int Run(const StudyArgs& a) {
                   k.c_str(), eg.size(), Median(hrs), lo, med, hi, 100 * (hi - lo) / std::abs(med),
                   *std::min_element(rm.begin(), rm.end()), Median(rm), *std::max_element(rm.begin(), rm.end()), mean_rm);
     table += line;
+    std::snprintf(line, sizeof line, "%s,%zu,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", k.c_str(), eg.size(),
+                  Median(hrs), lo, med, hi, 100 * (hi - lo) / std::abs(med), *std::min_element(rm.begin(), rm.end()),
+                  Median(rm), *std::max_element(rm.begin(), rm.end()), mean_rm);
+    summary_csv += line;
   }
   std::printf("%s", table.c_str());
   if (truth_eg) std::printf("truth EG (simulator): %.4f deg/g\n", model::EgToDegPerG(*truth_eg));
@@ -155,13 +164,16 @@ int Run(const StudyArgs& a) {
   fs::create_directories(out);
   WriteFileAtomically(out + "/study.csv", csv);
   WriteFileAtomically(out + "/study_table.txt", table);
-  const fs::path script = fs::path(NDSID_SOURCE_DIR) / "scripts" / "plot_study.py";
-  const fs::path python = fs::path(NDSID_SOURCE_DIR) / ".venv" / "bin" / "python3";
-  if (fs::exists(script) && fs::exists(python)) {
-    const std::string cmd = "'" + python.string() + "' '" + script.string() + "' '" + out + "'" +
-                            (truth_eg ? " " + std::to_string(model::EgToDegPerG(*truth_eg)) : std::string()) + " >/dev/null 2>&1";
-    if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/study.png\n", out.c_str());
+  WriteFileAtomically(out + "/study_summary.csv", summary_csv);
+  if (truth_eg) {
+    char line[96];
+    std::snprintf(line, sizeof line, "{\"truth_eg_deg_per_g\": %.10g}\n", model::EgToDegPerG(*truth_eg));
+    WriteFileAtomically(out + "/study_truth.json", line);
   }
+  std::vector<std::string> plot_args = {out};
+  if (truth_eg) plot_args.push_back(std::to_string(model::EgToDegPerG(*truth_eg)));
+  std::string why_not;
+  if (RunDeskScript("plot_study.py", plot_args, {}, &why_not)) std::printf("plot: %s/study.png\n", out.c_str());
   std::printf("report: %s/study.csv\n", out.c_str());
   return 0;
 }

@@ -127,3 +127,31 @@ def test_simulate_writes_a_log_with_its_truth(tmp_path):
     assert sim["truth"]["effects"]["steer_offset_deg"]["value"] == pytest.approx(0.7)
     df = ndsid.decode(sim["log"], dbc=DBC)
     assert df.t_s.max() - df.t_s.min() > 0.15 * 3600 * 0.5
+
+
+def test_study_tables_as_dataframes(tmp_path):
+    truth_file = os.path.join(os.path.dirname(CLEAN), "truth.yaml")
+    st = ndsid.study(CONFIG, [CLEAN], hours=[0.06, 0.12], validation_fraction=0.25, truth=truth_file,
+                     out=tmp_path / "study")
+    sets, summary = st["sets"], st["summary"]
+    assert list(sets.columns) == ["set", "hours", "eg_deg_per_g", "eg_se_deg_per_g", "rmse_validation", "valid"]
+    assert (sets.set == "SD").sum() == 3  # 4 bundled drives, one held out
+    assert {"H0.06", "H0.12", "AD"} <= set(sets.set)
+    # The summary is the per-size aggregate of the valid sets: recomputed here with pandas.
+    valid = sets[sets.valid]
+    for _, row in summary.iterrows():
+        g = valid[valid.set == row.set]
+        assert row.sets == len(g)
+        assert row.eg_min == pytest.approx(g.eg_deg_per_g.min(), abs=2e-6)
+        assert row.eg_median == pytest.approx(g.eg_deg_per_g.median(), abs=2e-6)
+        assert row.eg_max == pytest.approx(g.eg_deg_per_g.max(), abs=2e-6)
+        assert row.rmse_validation_mean == pytest.approx(g.rmse_validation.mean(), abs=2e-6)
+        assert row.spread_pct == pytest.approx(100 * (row.eg_max - row.eg_min) / abs(row.eg_median), abs=1e-3)
+    assert list(summary.set) == list(dict.fromkeys(valid.set))
+    # The all-data set against the simulator's truth (the CLI study test's 5 %).
+    eg_true = st["truth_eg_deg_per_g"]
+    assert eg_true == pytest.approx(truth(CLEAN)["vehicle"]["self_steer_gradient_deg_per_g"], rel=1e-6)
+    ad = summary[summary.set == "AD"].iloc[0]
+    assert abs(ad.eg_median - eg_true) / eg_true < 0.05
+    with pytest.raises(ndsid.ConfigError):
+        ndsid.study(CONFIG, [CLEAN], hours=[1, 0])

@@ -8,6 +8,7 @@
     cmp = ndsid.compare("config/example_vehicle.yaml", effects=[])                 # samples, bins
     dia = ndsid.diagnose("config/example_vehicle.yaml")                           # the error ladder
     sim = ndsid.simulate("/tmp/sim", hours=0.5, seed=3, effects={"steer_offset_deg": 1.0})
+    st = ndsid.study("config/example_vehicle.yaml", hours=[0.1, 0.2])             # sets, summary
 
 Errors of configuration or input raise ndsid.ConfigError (a ValueError) with the CLI's message.
 """
@@ -23,8 +24,8 @@ import pandas as pd
 
 from . import _ndsid
 
-__all__ = ["load_config", "decode", "replay", "compare", "diagnose", "simulate", "run", "ConfigError", "Error",
-           "SOURCE_DIR"]
+__all__ = ["load_config", "decode", "replay", "compare", "diagnose", "study", "simulate", "run", "ConfigError",
+           "Error", "SOURCE_DIR"]
 
 ConfigError = _ndsid.ConfigError
 Error = _ndsid.Error
@@ -154,6 +155,41 @@ def diagnose(config: str | os.PathLike, logs: Optional[Iterable[str] | str] = No
         d[key + "_df"] = pd.DataFrame(d.get(key, []))
     d["report"] = out_dir
     return d
+
+
+def study(config: str | os.PathLike, logs: Optional[Iterable[str] | str] = None, *,
+          hours: Sequence[float] = (1.0, 2.0, 5.0), max_single: int = 20, validation_fraction: float = 0.15,
+          seed: int = 1, truth: Optional[str | os.PathLike] = None, out: Optional[str | os.PathLike] = None) -> dict:
+    """`ndsid study` in process: the study's subset analysis (single drives, independent sets of
+    `hours` gated hours, all drives; each identified on its own and validated on drives held out
+    from every set). Returns a dict: `sets` (DataFrame, one row per identified set: set, hours,
+    eg_deg_per_g, eg_se_deg_per_g, rmse_validation, valid), `summary` (DataFrame, one row per set
+    size, the terminal's table: EG min / median / max, spread in %, validation RMSE min / median /
+    max / mean over the valid sets), `truth_eg_deg_per_g` (with `truth`, else None) and `report`
+    (the folder written)."""
+    hours = [float(h) for h in hours]
+    if not hours or not all(np.isfinite(h) and h > 0 for h in hours):  # checked before any work
+        raise ConfigError(f"hours: set sizes must be positive hours, got {hours}")
+    out_dir = os.fspath(out) if out is not None else tempfile.mkdtemp(prefix="ndsid-study-")
+    argv = ["study", "--config", os.fspath(config), "--out", out_dir, "--hours", ",".join(repr(h) for h in hours),
+            "--max-single", str(int(max_single)), "--validation-fraction", repr(float(validation_fraction)),
+            "--seed", str(int(seed))]
+    for log in _logs(logs):
+        argv += ["--log", log]
+    if truth is not None:
+        argv += ["--truth", os.fspath(truth)]
+    rc = run(*argv)
+    if rc != 0:
+        raise Error(f"ndsid study exited with {rc}")
+    sets = pd.read_csv(os.path.join(out_dir, "study.csv"))
+    sets["valid"] = sets["valid"].astype(bool)
+    summary = pd.read_csv(os.path.join(out_dir, "study_summary.csv"))
+    truth_eg = None
+    truth_path = os.path.join(out_dir, "study_truth.json")
+    if os.path.exists(truth_path):
+        with open(truth_path, encoding="utf-8") as f:
+            truth_eg = json.load(f)["truth_eg_deg_per_g"]
+    return {"sets": sets, "summary": summary, "truth_eg_deg_per_g": truth_eg, "report": out_dir}
 
 
 def simulate(out: str | os.PathLike, *, config: Optional[str | os.PathLike] = None, hours: Optional[float] = None,
