@@ -2,6 +2,7 @@
 # package, scripts/package.sh, or `cmake --install build --prefix /usr`):
 #   /usr/sbin/ndsidd, /usr/bin/ndsid                     (src/service, src/desk CMakeLists.txt)
 #   /usr/bin/ndsid-lcm-spy                               (scripts/ndsid-lcm-spy: lcm-spy for Java 17)
+#   /usr/bin/ndsid-foxglove, /usr/share/ndsid/foxglove/  (the Foxglove bridge, its layout, its pins)
 #   /usr/lib/systemd/system/ndsidd.service               (paths rewritten to the prefix)
 #   /etc/ndsid/vehicle.yaml                              (config/example_vehicle.yaml on socketcan can0)
 #   /usr/share/ndsid/dbc/ndsid_example.dbc               (referenced by the installed config)
@@ -34,6 +35,17 @@ install(FILES "${CMAKE_SOURCE_DIR}/systemd/80-can0.network" "${CMAKE_SOURCE_DIR}
         DESTINATION "${CMAKE_INSTALL_DATADIR}/ndsid/systemd")
 install(PROGRAMS "${CMAKE_SOURCE_DIR}/replay/vcan_replay.sh" DESTINATION "${CMAKE_INSTALL_DATADIR}/ndsid/replay" OPTIONAL)
 install(PROGRAMS "${CMAKE_SOURCE_DIR}/scripts/ndsid-lcm-spy" DESTINATION "${CMAKE_INSTALL_BINDIR}")
+# The Foxglove bridge: its launcher, the script, the layout, and the two pins it needs from
+# requirements.txt (`ndsid-foxglove --setup` installs them into a venv: Debian 12 has neither).
+install(PROGRAMS "${CMAKE_SOURCE_DIR}/scripts/ndsid-foxglove" DESTINATION "${CMAKE_INSTALL_BINDIR}")
+file(STRINGS "${CMAKE_SOURCE_DIR}/requirements.txt" ndsid_foxglove_pins REGEX "^(foxglove-sdk|lcm)==")
+list(TRANSFORM ndsid_foxglove_pins REPLACE " *#.*" "")
+list(JOIN ndsid_foxglove_pins "\n" ndsid_foxglove_pins)
+file(WRITE "${CMAKE_BINARY_DIR}/foxglove-requirements.txt" "${ndsid_foxglove_pins}\n")
+install(FILES "${CMAKE_SOURCE_DIR}/scripts/foxglove_bridge.py" "${CMAKE_SOURCE_DIR}/docs/foxglove/ndsid-layout.json"
+        DESTINATION "${CMAKE_INSTALL_DATADIR}/ndsid/foxglove")
+install(FILES "${CMAKE_BINARY_DIR}/foxglove-requirements.txt" DESTINATION "${CMAKE_INSTALL_DATADIR}/ndsid/foxglove"
+        RENAME requirements.txt)
 foreach(doc install.md daemon.md monitoring.md configuration.md can-input.md dbc.md)
   if(EXISTS "${CMAKE_SOURCE_DIR}/docs/${doc}")
     install(FILES "${CMAKE_SOURCE_DIR}/docs/${doc}" DESTINATION "${CMAKE_INSTALL_DOCDIR}")

@@ -33,8 +33,8 @@ set(CPACK_STRIP_FILES ON)                        # RelWithDebInfo binaries witho
 # libsystemd0, zlib1g, libstdc++6, libc6, ...
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 # Not needed by ndsidd: ndsid-lcm-spy (Java, lcm.jar, jchart2d), CAN tools, the Python
-# module's `lcm` (pip install lcm: Debian 12 has no python3-lcm).
-set(CPACK_DEBIAN_PACKAGE_SUGGESTS "liblcm-java, libjchart2d-java, default-jre, liblcm-bin, can-utils, python3")
+# module's `lcm` (pip install lcm: Debian 12 has no python3-lcm), python3-venv for `ndsid-foxglove --setup`.
+set(CPACK_DEBIAN_PACKAGE_SUGGESTS "liblcm-java, libjchart2d-java, default-jre, liblcm-bin, can-utils, python3, python3-venv")
 # Maintainer scripts (daemon-reload, stop on removal, purge of the learned state) and the
 # conffile list: /etc/ndsid/vehicle.yaml is the administrator's, dpkg keeps their edits.
 set(ndsid_control_dir "${CMAKE_BINARY_DIR}/debian-control")

@@ -34,7 +34,8 @@ def load_lcm_types(folder: str | None) -> dict:
     """The generated Python LCM types (estimate_t, status_t, monitor_t), loaded by file path:
     their package is also called ndsid, like the Python API's."""
     candidates = [folder] if folder else [
-        os.path.join(HERE, "..", "build", "lcmtypes", "python", "ndsid"),
+        os.path.join(HERE, "..", "build", "lcmtypes", "python", "ndsid"),  # the source tree
+        os.path.join(HERE, "..", "..", "..", "lib", "python3", "dist-packages", "ndsid"),  # installed: <prefix>/share/ndsid/foxglove
         "/usr/lib/python3/dist-packages/ndsid",
     ]
     for d in candidates:
@@ -50,6 +51,9 @@ def load_lcm_types(folder: str | None) -> dict:
                      "ndsid_lcmtypes_python; or pass --lcm-types DIR)")
 
 
+MODEL_FIELDS = ("lat_accel_model_mps2", "yaw_rate_model_radps")
+
+
 def to_json(msg) -> dict:
     """An LCM message as a JSON object: its fields, arrays as lists, bytes as text."""
     out = {}
@@ -60,6 +64,13 @@ def to_json(msg) -> dict:
         elif isinstance(v, bytes):
             v = v.decode("utf-8", "replace")
         out[field] = v
+    # The monitor's model values are 0 where the model was not evaluated (model_valid false: no
+    # estimate yet, or the sample was not gated, e.g. below the minimum speed). Sent as null, so
+    # a plot shows a gap there instead of a model that reads 0.
+    if out.get("model_valid") is False:
+        for k in MODEL_FIELDS:
+            if k in out:
+                out[k] = None
     if "param_name" in out and "param_value" in out:
         n = len(out["param_name"])
         keys = [k for k in ("param_value", "param_sigma", "param_unit", "param_fixed", "param_at_bound") if k in out]
@@ -82,7 +93,10 @@ def json_schema(value) -> dict:
     if isinstance(value, list):
         return {"type": "array", "items": json_schema(value[0]) if value else {}}
     if isinstance(value, dict):
-        return {"type": "object", "properties": {k: json_schema(v) for k, v in value.items()}}
+        # The model fields are numbers also when the first message has them null (Foxglove's
+        # schema parser takes no type lists such as ["number", "null"]).
+        return {"type": "object", "properties": {k: {"type": "number"} if k in MODEL_FIELDS else json_schema(v)
+                                                 for k, v in value.items()}}
     return {}
 
 
@@ -113,7 +127,12 @@ def main(argv=None) -> int:
     routes = {a.estimate_channel: ("/ndsid/estimate", types["estimate_t"]),
               a.status_channel: ("/ndsid/status", types["status_t"]),
               a.monitor_channel: ("/ndsid/monitor", types["monitor_t"])}
-    server = foxglove.start_server(name="ndsid", host=a.host, port=a.port)
+    from foxglove.websocket import Capability
+
+    # Capability.Time: the app's clock is the data time the bridge broadcasts (below), so a live
+    # view's time axis is the car's, also for a replay faster than real time. Without it the app
+    # stamps every message with its own wall clock when it arrives.
+    server = foxglove.start_server(name="ndsid", host=a.host, port=a.port, capabilities=[Capability.Time])
     mcap = foxglove.open_mcap(a.mcap, allow_overwrite=True) if a.mcap else None
     channels: dict = {}
     counts = {"forwarded": 0, "undecodable": 0, "failed": 0, "rate_limited": 0}
@@ -141,8 +160,13 @@ def main(argv=None) -> int:
             # Log time: the message's data time; one without (utime 0: no data yet) takes the
             # newest data time seen, never the wall clock, which is another time base.
             utime = msg.get("utime", 0)
-            if isinstance(utime, int) and utime > 0:
-                last_log_ns[0] = max(last_log_ns[0], utime * 1000)
+            if isinstance(utime, int) and utime > 0 and utime * 1000 > last_log_ns[0]:
+                last_log_ns[0] = utime * 1000
+                # The app's clock: the newest data time of the bus (status, monitor). Not the
+                # estimate's, which after a restart is the learned state's, maybe days old: the
+                # app's time line would start there.
+                if channel != a.estimate_channel:
+                    server.broadcast_time(last_log_ns[0])
             channels[topic].log(msg, log_time=utime * 1000 if isinstance(utime, int) and utime > 0 else last_log_ns[0])
         except Exception as e:  # never fatal: counted, the first one said
             counts["failed"] += 1

@@ -104,6 +104,8 @@ def main():
             assert line.startswith("ndsid-foxglove: ws://"), line
             ws = connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"], open_timeout=10)
             topics = {}
+            capabilities = None
+            clock = []  # the server's time messages (op 0x02): the app's clock
             deadline = time.time() + 20
             # Channels are advertised when their first message arrives: publish until all three are.
             while len(topics) < 3 and time.time() < deadline:
@@ -112,8 +114,12 @@ def main():
                     m = ws.recv(timeout=0.3)
                 except TimeoutError:
                     continue
+                if isinstance(m, bytes) and m[0] == 0x02:
+                    clock.append(struct.unpack_from("<Q", m, 1)[0])
                 if isinstance(m, str):
                     op = json.loads(m)
+                    if op.get("op") == "serverInfo":
+                        capabilities = op.get("capabilities", [])
                     if op.get("op") == "advertise":
                         for ch in op["channels"]:
                             topics[ch["topic"]] = ch
@@ -136,15 +142,69 @@ def main():
                 if isinstance(m, bytes) and m[0] == 0x01:
                     sub, log_time = struct.unpack_from("<IQ", m, 1)
                     received[by_sub[sub]] = (log_time, json.loads(m[13:]))
+                if isinstance(m, bytes) and m[0] == 0x02:
+                    clock.append(struct.unpack_from("<Q", m, 1)[0])
             assert set(received) == set(topics), received.keys()
+            # The app's clock is the data clock: the bridge says it serves time, and its clock
+            # is the newest data time it has seen (the monitor's, 20 ms after the estimate).
+            assert capabilities is not None and "time" in capabilities, capabilities
+            deadline = time.time() + 5
+            while mon.utime * 1000 not in clock and time.time() < deadline:
+                publish_all()
+                try:
+                    m = ws.recv(timeout=0.3)
+                except TimeoutError:
+                    continue
+                if isinstance(m, bytes) and m[0] == 0x02:
+                    clock.append(struct.unpack_from("<Q", m, 1)[0])
+            assert clock and max(clock) == mon.utime * 1000, clock[-5:]
+            assert all(b > a for a, b in zip(clock, clock[1:])), "the clock went backwards or stood"
+            # Estimates do not move the clock (after a restart an estimate carries the learned
+            # state's data time, maybe days old): each round published the estimate at the
+            # status's time, first, and the clock never showed it.
+            assert est.utime * 1000 not in clock, clock[:5]
             log_time, e = received["/ndsid/estimate"]
             assert log_time == est.utime * 1000  # the data time, in ns
             assert e["eg_deg_per_g"] == est.eg_deg_per_g and e["eg_rad_per_mps2"] == est.eg_rad_per_mps2
             assert e["param_value"] == est.param_value and e["vehicle"] == "example-cmax" and e["valid"] is True
             assert e["params"]["cv"] == {"value": 98765.4, "sigma": 812.0, "unit": "N/rad", "fixed": False,
                                          "at_bound": False}
+            # The shipped layout (docs/foxglove/ndsid-layout.json) plots fields the bridge sends.
+            with open(os.path.join(SRC, "docs", "foxglove", "ndsid-layout.json"), encoding="utf-8") as f:
+                layout = json.load(f)
+            paths = [p["value"] for c in layout["configById"].values() for p in c.get("paths", [])]
+            paths += [c["topicPath"] for c in layout["configById"].values() if "topicPath" in c]
+            assert len(paths) >= 5, paths
+            for path in paths:
+                topic, _, field = path.partition(".")
+                assert topic in received, f"layout: {path}: no topic {topic}"
+                assert not field or field in received[topic][1], f"layout: {path}: no field {field}"
             _, mo = received["/ndsid/monitor"]
             assert mo["lat_accel_model_mps2"] == 1.21 and mo["verdict"] == "accepted"
+            assert json.loads(topics["/ndsid/monitor"]["schema"])["properties"]["lat_accel_model_mps2"] == {
+                "type": "number"}
+            # A sample the model did not evaluate (not gated): its model values arrive as null, not
+            # as the 0 the daemon fills in, so a plot shows a gap rather than a model reading 0.
+            ungated = monitor_t.decode(mon.encode())
+            ungated.utime += 20_000
+            ungated.model_valid, ungated.verdict = False, "below_min_speed"
+            ungated.lat_accel_model_mps2 = ungated.yaw_rate_model_radps = 0.0
+            mon_sub = next(i for i, t in by_sub.items() if t == "/ndsid/monitor")
+            got = None
+            deadline = time.time() + 10
+            while got is None and time.time() < deadline:
+                lc.publish("NDSID_MONITOR", ungated.encode())
+                try:
+                    m = ws.recv(timeout=0.3)
+                except TimeoutError:
+                    continue
+                if isinstance(m, bytes) and m[0] == 0x01 and struct.unpack_from("<I", m, 1)[0] == mon_sub:
+                    doc = json.loads(m[13:])
+                    if doc["verdict"] == "below_min_speed":
+                        got = doc
+            assert got is not None, "the ungated monitor sample did not arrive"
+            assert got["lat_accel_model_mps2"] is None and got["yaw_rate_model_radps"] is None, got
+            assert got["lat_accel_mps2"] == 1.25
             assert received["/ndsid/status"][1]["frames_read"] == 123456
             ws.close()
         finally:

@@ -98,13 +98,15 @@ expect_mode() {  # expect_mode MODE PATH
   grep -Eq "^$1 root/root +[0-9]+ [0-9-]+ [0-9:]+ \./${2#/}$" contents.txt ||
     fail "$2: expected $1 root/root, got: $(grep -E " \./${2#/}$" contents.txt || echo 'not in the package')"
 }
-for f in /usr/sbin/ndsidd /usr/bin/ndsid /usr/bin/ndsid-lcm-spy; do expect_mode -rwxr-xr-x "$f"; done
+for f in /usr/sbin/ndsidd /usr/bin/ndsid /usr/bin/ndsid-lcm-spy /usr/bin/ndsid-foxglove; do expect_mode -rwxr-xr-x "$f"; done
 for f in /etc/ndsid/vehicle.yaml /usr/lib/systemd/system/ndsidd.service /usr/share/ndsid/dbc/ndsid_example.dbc \
          /usr/share/ndsid/java/ndsid_lcmtypes.jar /usr/include/ndsid/estimate_t.hpp \
          /usr/include/ndsid/status_t.hpp /usr/include/ndsid/monitor_t.hpp \
          /usr/lib/python3/dist-packages/ndsid/__init__.py /usr/lib/python3/dist-packages/ndsid/estimate_t.py \
          /usr/share/ndsid/systemd/80-can0.network /usr/share/doc/ndsid/install.md /usr/share/doc/ndsid/daemon.md \
-         /usr/share/doc/ndsid/monitoring.md /usr/share/doc/ndsid/configuration.md /usr/share/doc/ndsid/changelog.Debian.gz; do
+         /usr/share/doc/ndsid/monitoring.md /usr/share/doc/ndsid/configuration.md /usr/share/doc/ndsid/changelog.Debian.gz \
+         /usr/share/ndsid/foxglove/foxglove_bridge.py /usr/share/ndsid/foxglove/ndsid-layout.json \
+         /usr/share/ndsid/foxglove/requirements.txt; do
   expect_mode -rw-r--r-- "$f"
 done
 bad_dirs="$(grep '^d' contents.txt | grep -v '^drwxr-xr-x root/root ' || true)"
@@ -184,6 +186,25 @@ if command -v java >/dev/null && [[ -f /usr/share/java/lcm.jar && -f /usr/share/
   echo "$spy" | grep -q "Found $(ls "$root"/usr/share/ndsid/lcmtypes/*.lcm | wc -l) LCM types" ||
     fail "installed ndsid-lcm-spy did not load the installed types: $spy"
   pass "installed ndsid-lcm-spy loads the installed type jar"
+fi
+# The installed Foxglove bridge: without its Python environment it says how to make one; after
+# `ndsid-foxglove --setup DIR` (a venv with the pinned foxglove-sdk and lcm from PyPI) it starts
+# on the installed script and the installed LCM types (in-process LCM: memq, no network needed).
+fg="$root/usr/bin/ndsid-foxglove"
+grep -Eq '^foxglove-sdk==[0-9.]+$' "$root/usr/share/ndsid/foxglove/requirements.txt" &&
+  grep -Eq '^lcm==[0-9.]+$' "$root/usr/share/ndsid/foxglove/requirements.txt" ||
+  fail "the installed foxglove requirements: $(cat "$root/usr/share/ndsid/foxglove/requirements.txt")"
+rc=0; out="$(env -u NDSID_PYTHON NDSID_FOXGLOVE_VENV="$work/no-venv" "$fg" 2>&1)" || rc=$?
+[[ $rc -eq 1 ]] && echo "$out" | grep -q -- "--setup" ||
+  fail "ndsid-foxglove without its environment: exit $rc, said: $out"
+if command -v python3 >/dev/null && python3 -c "import venv, ensurepip" 2>/dev/null; then
+  env -u NDSID_PYTHON "$fg" --setup "$work/fg-venv" >fg-setup.log 2>&1 || { cat fg-setup.log; fail "ndsid-foxglove --setup"; }
+  out="$(env -u NDSID_PYTHON NDSID_FOXGLOVE_VENV="$work/fg-venv" timeout -s INT 8 "$fg" --lcm-url memq:// --port 0 2>&1 || true)"
+  echo "$out" | grep -q "^ndsid-foxglove: ws://127.0.0.1:[0-9]* <- LCM memq://" &&
+    echo "$out" | grep -q "0 messages forwarded" || fail "installed ndsid-foxglove did not start and stop: $out"
+  pass "installed ndsid-foxglove: --setup made its venv ($(grep -c . "$root/usr/share/ndsid/foxglove/requirements.txt") pins), the bridge served and stopped on SIGINT"
+else
+  echo "note: python3-venv missing, ndsid-foxglove --setup not exercised"
 fi
 
 # --- 6. remove, purge ----------------------------------------------------------------------
