@@ -9,7 +9,8 @@
 namespace ndsid::desk {
 
 // Writes `v` exactly as printf("%.10g") would (the format `ndsid decode` has always used): whole
-// numbers below 1e10 (flags, counters, zeros: most of a bus) as integers; the rest from the
+// numbers below 1e10 (flags, counters, zeros: most of a bus) as integers; short decimals (a raw
+// value times a DBC factor) from their integer digits; the rest from the
 // shortest round-trip digits (to_chars without a precision, several times faster than with
 // one), rounded to 10 significant digits. That rounding equals printf's rounding of the exact
 // binary value except when the digits beyond the tenth are exactly "5" (the shortest digits then
@@ -24,6 +25,44 @@ inline char* FormatG10(char* p, double v) {
       return p;
     }
     return std::to_chars(p, p + 32, static_cast<int64_t>(v)).ptr;
+  }
+  // Short decimals, what a DBC factor makes of a raw value (raw * 0.01, raw * 0.0625 - 40): v
+  // within 1e-12 (relative) of a decimal D of at most 10 significant digits, 1e-4 <= |D| < 1e10.
+  // printf's rounding of v to 10 significant digits is then D itself (half a unit of the 10th
+  // digit is at least 5e-11 of the value, far beyond v's distance from D), and %g prints D in
+  // fixed notation without trailing zeros: its digits, straight from the integer D * 10^k.
+  {
+    const double a = std::abs(v);
+    if (a >= 1e-4 && a < 1e10) {
+      double scale = 1;
+      for (int k = 1; k <= 14; ++k) {
+        scale *= 10;  // 10^k, exact
+        const double m = a * scale;
+        if (m >= 1e10) break;  // D would need more than 10 digits
+        const double r = static_cast<double>(static_cast<int64_t>(m + 0.5));
+        if (!(std::abs(m - r) <= 1e-12 * m) || r < 1 || r >= 1e10) continue;
+        uint64_t digits = static_cast<uint64_t>(r);
+        int decimals = k;
+        while (decimals > 0 && digits % 10 == 0) {
+          digits /= 10;
+          --decimals;
+        }
+        uint64_t pow10 = 1;
+        for (int i = 0; i < decimals; ++i) pow10 *= 10;
+        if (v < 0) *p++ = '-';
+        p = std::to_chars(p, p + 24, digits / pow10).ptr;
+        if (decimals > 0) {
+          *p++ = '.';
+          uint64_t frac = digits % pow10;
+          for (int i = decimals - 1; i >= 0; --i) {
+            p[i] = static_cast<char>('0' + frac % 10);
+            frac /= 10;
+          }
+          p += decimals;
+        }
+        return p;
+      }
+    }
   }
   // Non-finite values, and subnormals (their few bits leave the shortest digits far from the exact value).
   if (!std::isfinite(v) || std::abs(v) < std::numeric_limits<double>::min())

@@ -45,6 +45,33 @@ TEST(FormatG10, EqualsPrintfOnDbcScaledRawValues) {
   }
 }
 
+// The short-decimal path: decimals of 1 to 10 significant digits with 1 to 14 decimals, made
+// the ways a decoder makes them (integer / 10^k, integer * 10^-k, raw * factor + offset), and
+// the same values moved by 1e-13 .. 1e-9 of themselves (near a short decimal, but some too far
+// to be one at 10 digits), on both sides of 1e-4 and 1e10.
+TEST(FormatG10, EqualsPrintfOnShortDecimalsAndTheirNeighbours) {
+  std::mt19937_64 rng(17);
+  const double moves[] = {0, 1e-13, -1e-13, 2e-12, -5e-12, 3e-11, -4e-11, 1e-10, 1e-9};
+  for (int i = 0; i < 300000; ++i) {
+    const int digits = 1 + static_cast<int>(rng() % 10);
+    uint64_t bound = 1;
+    for (int d = 0; d < digits; ++d) bound *= 10;
+    const double r = static_cast<double>(rng() % bound);
+    const int k = 1 + static_cast<int>(rng() % 14);
+    const double sign = rng() % 2 ? 1.0 : -1.0;
+    const double by_division = sign * r / std::pow(10.0, k);
+    const double by_product = sign * r * std::pow(10.0, -k);
+    const double move = moves[rng() % 9];
+    for (double v : {by_division, by_product, by_division * (1 + move), std::nextafter(by_product, 0.0)}) {
+      ASSERT_EQ(Fast(v), Printf(v)) << r << "e-" << k << " moved " << move;
+    }
+  }
+  for (double v : {1e-4, 0.00010000000001, 0.0001000000001, 9.999999999e-5, 9999999999.5, 999999999.95, 0.1 + 0.2,
+                   -327.68, 0.3 - 0.1, 1.0 / 3.0, 2.0 / 3.0, 123456789.1, 12345678.91}) {
+    EXPECT_EQ(Fast(v), Printf(v)) << v;
+  }
+}
+
 TEST(FormatG10, EqualsPrintfOnRandomDoublesOfEveryMagnitude) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> mantissa(-10, 10);
