@@ -103,60 +103,51 @@ def main():
             line = bridge.stdout.readline()
             assert line.startswith("ndsid-foxglove: ws://"), line
             ws = connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"], open_timeout=10)
-            topics = {}
-            capabilities = None
-            clock = []  # the server's time messages (op 0x02): the app's clock
-            deadline = time.time() + 20
+            topics, received, docs, clock = {}, {}, {}, []  # clock: the server's time messages (op 0x02)
+            server = {"capabilities": None}
+            by_sub = {}
+
+            def pump(publish, done, seconds):
+                """Publish and read the WebSocket until done() or the time is up, recording every
+                message: serverInfo, advertisements, the clock, and each subscription's messages."""
+                deadline = time.time() + seconds
+                while not done() and time.time() < deadline:
+                    publish()
+                    try:
+                        m = ws.recv(timeout=0.3)
+                    except TimeoutError:
+                        continue
+                    if isinstance(m, str):
+                        op = json.loads(m)
+                        if op.get("op") == "serverInfo":
+                            server["capabilities"] = op.get("capabilities", [])
+                        if op.get("op") == "advertise":
+                            for ch in op["channels"]:
+                                topics[ch["topic"]] = ch
+                    elif m[0] == 0x01:
+                        sub, log_time = struct.unpack_from("<IQ", m, 1)
+                        doc = json.loads(m[13:])
+                        received[by_sub[sub]] = (log_time, doc)
+                        docs.setdefault(by_sub[sub], []).append(doc)
+                    elif m[0] == 0x02:
+                        clock.append(struct.unpack_from("<Q", m, 1)[0])
+
             # Channels are advertised when their first message arrives: publish until all three are.
-            while len(topics) < 3 and time.time() < deadline:
-                publish_all()
-                try:
-                    m = ws.recv(timeout=0.3)
-                except TimeoutError:
-                    continue
-                if isinstance(m, bytes) and m[0] == 0x02:
-                    clock.append(struct.unpack_from("<Q", m, 1)[0])
-                if isinstance(m, str):
-                    op = json.loads(m)
-                    if op.get("op") == "serverInfo":
-                        capabilities = op.get("capabilities", [])
-                    if op.get("op") == "advertise":
-                        for ch in op["channels"]:
-                            topics[ch["topic"]] = ch
+            pump(publish_all, lambda: len(topics) >= 3, 20)
             assert set(topics) == {"/ndsid/estimate", "/ndsid/monitor", "/ndsid/status"}, topics
             assert topics["/ndsid/estimate"]["encoding"] == "json"
             schema = json.loads(topics["/ndsid/estimate"]["schema"])
             assert schema["properties"]["eg_deg_per_g"] == {"type": "number"}
             ws.send(json.dumps({"op": "subscribe", "subscriptions": [
                 {"id": i, "channelId": topics[t]["id"]} for i, t in enumerate(sorted(topics), start=1)]}))
-            by_sub = {i: t for i, t in enumerate(sorted(topics), start=1)}
+            by_sub.update({i: t for i, t in enumerate(sorted(topics), start=1)})
             lc.publish("NDSID_ESTIMATE", b"\x00garbage")  # damaged: counted, not fatal
-            received = {}
-            deadline = time.time() + 20
-            while len(received) < 3 and time.time() < deadline:
-                publish_all()
-                try:
-                    m = ws.recv(timeout=0.3)
-                except TimeoutError:
-                    continue
-                if isinstance(m, bytes) and m[0] == 0x01:
-                    sub, log_time = struct.unpack_from("<IQ", m, 1)
-                    received[by_sub[sub]] = (log_time, json.loads(m[13:]))
-                if isinstance(m, bytes) and m[0] == 0x02:
-                    clock.append(struct.unpack_from("<Q", m, 1)[0])
+            pump(publish_all, lambda: len(received) >= 3, 20)
             assert set(received) == set(topics), received.keys()
             # The app's clock is the data clock: the bridge says it serves time, and its clock
             # is the newest data time it has seen (the monitor's, 20 ms after the estimate).
-            assert capabilities is not None and "time" in capabilities, capabilities
-            deadline = time.time() + 5
-            while mon.utime * 1000 not in clock and time.time() < deadline:
-                publish_all()
-                try:
-                    m = ws.recv(timeout=0.3)
-                except TimeoutError:
-                    continue
-                if isinstance(m, bytes) and m[0] == 0x02:
-                    clock.append(struct.unpack_from("<Q", m, 1)[0])
+            assert server["capabilities"] is not None and "time" in server["capabilities"], server
+            pump(publish_all, lambda: mon.utime * 1000 in clock, 5)
             assert clock and max(clock) == mon.utime * 1000, clock[-5:]
             assert all(b > a for a, b in zip(clock, clock[1:])), "the clock went backwards or stood"
             # Estimates do not move the clock (after a restart an estimate carries the learned
@@ -189,19 +180,10 @@ def main():
             ungated.utime += 20_000
             ungated.model_valid, ungated.verdict = False, "below_min_speed"
             ungated.lat_accel_model_mps2 = ungated.yaw_rate_model_radps = 0.0
-            mon_sub = next(i for i, t in by_sub.items() if t == "/ndsid/monitor")
-            got = None
-            deadline = time.time() + 10
-            while got is None and time.time() < deadline:
-                lc.publish("NDSID_MONITOR", ungated.encode())
-                try:
-                    m = ws.recv(timeout=0.3)
-                except TimeoutError:
-                    continue
-                if isinstance(m, bytes) and m[0] == 0x01 and struct.unpack_from("<I", m, 1)[0] == mon_sub:
-                    doc = json.loads(m[13:])
-                    if doc["verdict"] == "below_min_speed":
-                        got = doc
+            def ungated_doc():
+                return next((d for d in docs.get("/ndsid/monitor", []) if d["verdict"] == "below_min_speed"), None)
+            pump(lambda: lc.publish("NDSID_MONITOR", ungated.encode()), lambda: ungated_doc() is not None, 10)
+            got = ungated_doc()
             assert got is not None, "the ungated monitor sample did not arrive"
             assert got["lat_accel_model_mps2"] is None and got["yaw_rate_model_radps"] is None, got
             assert got["lat_accel_mps2"] == 1.25

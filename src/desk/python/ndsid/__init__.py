@@ -167,9 +167,7 @@ def study(config: str | os.PathLike, logs: Optional[Iterable[str] | str] = None,
     size, the terminal's table: EG min / median / max, spread in %, validation RMSE min / median /
     max / mean over the valid sets), `truth_eg_deg_per_g` (with `truth`, else None) and `report`
     (the folder written)."""
-    hours = [float(h) for h in hours]
-    if not hours or not all(np.isfinite(h) and h > 0 for h in hours):  # checked before any work
-        raise ConfigError(f"hours: set sizes must be positive hours, got {hours}")
+    hours = [float(h) for h in hours]  # checked by `ndsid study` before any work (ConfigError)
     out_dir = os.fspath(out) if out is not None else tempfile.mkdtemp(prefix="ndsid-study-")
     argv = ["study", "--config", os.fspath(config), "--out", out_dir, "--hours", ",".join(repr(h) for h in hours),
             "--max-single", str(int(max_single)), "--validation-fraction", repr(float(validation_fraction)),
