@@ -50,6 +50,8 @@ const std::vector<EffectInfo>& EffectTable() {
        &SimEffects::speed_delay_ms},
       {"gyro_offset_degps", "deg/s", "yaw-rate sensor offset: r_meas = r + r0", "+-0.5",
        &SimEffects::gyro_offset_degps},
+      {"gyro_offset_drive_degps", "deg/s", "per-drive yaw-rate sensor offset: r0_i = r0 + U(-d, d) for drive i", "0..0.5",
+       &SimEffects::gyro_offset_drive_degps},
       {"gyro_scale_pct", "%", "yaw-rate sensor scale error: r_meas = (1 + k_r) r", "+-3", &SimEffects::gyro_scale_pct},
       {"accel_scale_pct", "%", "accelerometer scale error: a_y,meas = (1 + k_a) a_y", "+-3", &SimEffects::accel_scale_pct},
       {"gyro_delay_ms", "ms", "yaw-rate sensor latency (exact delay): r_meas(t) = r(t - tau)", "10..100",
@@ -327,6 +329,8 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   require(std::fabs(e.speed_offset_kph) <= 20.0, "effects.speed_offset_kph in [-20, 20] km/h");
   require(e.speed_delay_ms >= 0.0 && e.speed_delay_ms <= 1000.0, "effects.speed_delay_ms in [0, 1000] ms");
   require(std::fabs(e.gyro_offset_degps) <= 10.0, "effects.gyro_offset_degps in [-10, 10] deg/s");
+  require(e.gyro_offset_drive_degps >= 0.0 && e.gyro_offset_drive_degps <= 10.0,
+          "effects.gyro_offset_drive_degps in [0, 10] deg/s (a +- range)");
   require(std::fabs(e.gyro_scale_pct) < 50.0, "effects.gyro_scale_pct in (-50, 50) %");
   require(std::fabs(e.accel_scale_pct) < 50.0, "effects.accel_scale_pct in (-50, 50) %");
   require(e.gyro_delay_ms >= 0.0 && e.gyro_delay_ms <= 1000.0, "effects.gyro_delay_ms in [0, 1000] ms");

@@ -250,8 +250,8 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
     if (!m.fit.valid) throw Error("the " + m.label + " model " + JoinEffects(m.effects) + " has no valid fit: " + m.fit.reason);
     identify::Identifier id(data.config.identification, data.config.vehicle.wheelbase_m,
                             model::ModelSpec::FromNames(m.effects, data.pipeline->library()));
-    id.set_drive_loads(m.fit.drive_loads);  // load_change: each drive at its fitted load
-    outs.push_back(identify::SimulateChunks(id, m.fit.AllValues(), all));
+    id.set_drive_values(m.fit.drive_values);  // per-drive parameters: each drive at its fitted values
+    outs.push_back(identify::SimulateChunks(id, m.fit.ValuesFor(id.spec()), all));
   }
   const size_t nm = c.models.size();
   for (size_t ci = 0; ci < outs[0].size(); ++ci) {
@@ -370,9 +370,9 @@ void PrintComparison(const Comparison& c) {
     for (const auto& p : f.effect_params) {
       std::printf("         %s = %.5g ± %.2g %s\n", p.name.c_str(), p.value, p.se, p.unit.c_str());
     }
-    for (const auto& l : f.drive_loads) {
-      std::printf("         load ratio drive %lld = %.4f ± %.4f%s\n", static_cast<long long>(l.drive_id), l.ratio, l.se,
-                  l.reference ? " (reference: EG is at this load)" : l.validation ? " (held out)" : "");
+    for (const auto& v : f.drive_values) {
+      std::printf("         %s drive %lld = %.5g ± %.2g%s\n", v.param.c_str(), static_cast<long long>(v.drive_id), v.value, v.se,
+                  v.reference ? " (reference: the parameters and EG describe this drive)" : v.validation ? " (held out)" : "");
     }
   }
   std::printf("noise floor %.4f m/s^2 (%s)\n", c.noise_floor, c.noise_floor_source.c_str());

@@ -47,19 +47,22 @@ const Signature kSignatures[] = {
 };
 constexpr int kNumSignatures = sizeof(kSignatures) / sizeof(kSignatures[0]);
 
-// The load_change candidate (mass / load per drive, physics.md §4): one sensitivity column per
-// drive, g_d = d(e)/d(rho_d) = -(cv A_cv + ch A_ch) on that drive's chunks (a load ratio scales
-// the tyre forces by 1/rho). Projected against the fitted parameters, which absorb the common
-// mode (all drives alike), the joint score gives the drop in RSS of fitting a ratio per drive;
-// significance from chi^2 = dRSS / (sigma^2 tau) on rank - 1 degrees of freedom.
-struct LoadScore {
-  bool active = false;
+// A per-drive candidate parameter (model::EffectParam::per_drive; load_change's load ratio):
+// one sensitivity column per drive, g_d = d(e)/d(value) on that drive's chunks (the column of
+// the candidate's parameter, restricted to the drive). Projected against the fitted parameters,
+// which absorb what all drives share (for a parameter with a common mode, exactly: a common load
+// is cv and ch), the joint score gives the drop in RSS of fitting a value per drive;
+// significance from chi^2 = dRSS / (sigma^2 tau) on the projected columns' rank.
+struct PerDriveScore {
+  int col = -1;                          // the candidate's column in the big model
+  bool pinned = false;                   // its common mode is in the base parameters (a load)
+  std::string effect, param;
   std::map<int64_t, int> index;          // drive id -> column
   std::vector<Eigen::VectorXd> a_g;      // per drive: A' g_d (all columns of big)
   std::vector<double> g_g, g_e;          // per drive: g_d' g_d, g_d' e
 
   void Add(int64_t drive, const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>& A,
-           const Eigen::Map<const Eigen::VectorXd>& e, const std::vector<double>& x) {
+           const Eigen::Map<const Eigen::VectorXd>& e) {
     const auto [it, added] = index.emplace(drive, static_cast<int>(index.size()));
     if (added) {
       a_g.push_back(Eigen::VectorXd::Zero(A.cols()));
@@ -67,15 +70,25 @@ struct LoadScore {
       g_e.push_back(0);
     }
     const int d = it->second;
-    const Eigen::VectorXd g = -(x[model::kStiffFront] * A.col(model::kStiffFront) + x[model::kStiffRear] * A.col(model::kStiffRear));
+    const Eigen::VectorXd g = A.col(col);
     a_g[static_cast<size_t>(d)] += A.transpose() * g;
     g_g[static_cast<size_t>(d)] += g.squaredNorm();
     g_e[static_cast<size_t>(d)] += g.dot(e);
   }
 
-  CandidateScore Score(const Eigen::MatrixXd& JtJ, const Eigen::VectorXd& Jte, const std::vector<int>& fitted, double rss,
+  // M = A'A, Ae = A'e over all columns of big. Projected against the fitted parameters and, for a
+  // parameter without a common mode, against its own column too: the score is the spread
+  // between drives beyond one common value (which the parameter's global form would fit).
+  CandidateScore Score(const Eigen::MatrixXd& M, const Eigen::VectorXd& Ae, std::vector<int> fitted, double rss,
                        size_t n, const std::vector<std::vector<double>>& residuals, double z_threshold) const {
+    if (!pinned && std::find(fitted.begin(), fitted.end(), col) == fitted.end()) fitted.push_back(col);
     const int nd = static_cast<int>(index.size()), nf = static_cast<int>(fitted.size());
+    Eigen::MatrixXd JtJ(nf, nf);
+    Eigen::VectorXd Jte(nf);
+    for (int a = 0; a < nf; ++a) {
+      Jte[a] = Ae[fitted[a]];
+      for (int b = 0; b < nf; ++b) JtJ(a, b) = M(fitted[a], fitted[b]);
+    }
     Eigen::MatrixXd JtG(nf, nd), GtG = Eigen::MatrixXd::Zero(nd, nd);
     Eigen::VectorXd Gte(nd);
     for (int d = 0; d < nd; ++d) {
@@ -89,14 +102,14 @@ struct LoadScore {
     const auto cod = P.completeOrthogonalDecomposition();
     const Eigen::VectorXd eta = cod.solve(q);
     CandidateScore s;
-    s.effect = model::ModelSpec::kLoadChange;
-    s.param = "load ratio spread (sd over drives)";
+    s.effect = effect;
+    s.param = param + " spread (sd over drives)";
     s.unit = "-";
     s.drss = std::max(0.0, q.dot(eta));
     s.rmse_predicted = std::sqrt(std::max(0.0, rss - s.drss) / static_cast<double>(n));
-    const double mean = -eta.mean();
+    const double mean = eta.mean();
     double var = 0;
-    for (int d = 0; d < nd; ++d) var += (-eta[d] - mean) * (-eta[d] - mean);
+    for (int d = 0; d < nd; ++d) var += (eta[d] - mean) * (eta[d] - mean);
     s.one_step = nd > 1 ? std::sqrt(var / (nd - 1)) : 0.0;
     s.uniqueness = GtG.trace() > 0 ? P.trace() / GtG.trace() : 0.0;
     const double sigma2_tau = ResidualNoiseLevel(residuals);
@@ -148,33 +161,70 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   }
   // One model holding every candidate at its neutral value: its Jacobian there gives the
   // fitted parameters' columns J and every candidate's sensitivity column at once.
+  // Alternatives (effects sharing a parameter: gyro_offset and gyro_offset_per_drive) enter it
+  // once: a per-drive candidate whose parameter the model or an earlier candidate already has is
+  // scored on that column, split by drive; any other such candidate is the model's own already.
   std::vector<std::string> all = present;
-  all.insert(all.end(), candidates.begin(), candidates.end());
+  std::vector<std::pair<std::string, std::string>> alternatives;  // (per-drive candidate, its parameter)
+  for (const std::string& c : candidates) {
+    const auto& params = spec.library().Get(c)->info().params;
+    bool clash = false;
+    for (const std::string& other : all)
+      for (const auto& q : spec.library().Get(other)->info().params)
+        for (const auto& p : params) clash |= p.name == q.name;
+    if (!clash) {
+      all.push_back(c);
+      continue;
+    }
+    for (const auto& p : params)
+      if (p.per_drive) alternatives.emplace_back(c, p.name);
+  }
   const model::ModelSpec big = model::ModelSpec::FromNames(all, spec.library());
   const std::vector<double> x = Extend(spec, params, big);
   const int np = big.num_params();
   std::vector<int> fitted, cand;  // columns of big: fitted free parameters, candidate parameters
+  std::vector<int> per_drive_cols;  // candidate per-drive parameters
   for (int i = 0; i < np; ++i) {
     const bool is_base = i < model::kNumParams;
     bool in_current = is_base;
     for (int j = model::kNumParams; j < spec.num_params() && !is_base; ++j) in_current |= spec.param_name(j) == big.param_name(i);
+    const model::EffectParam* ep = big.effect_param(i);
     if (in_current) {
+      if (ep && ep->pinned_at_reference()) continue;  // held at neutral on the reference drive
       if (!(is_base && identifier.config().params[i].fixed)) fitted.push_back(i);
+    } else if (ep && ep->per_drive) {
+      per_drive_cols.push_back(i);  // scored per drive (PerDriveScore)
     } else {
       cand.push_back(i);
     }
   }
 
   const auto& cfg = identifier.config();
-  const auto chunks = MakeChunks(segments, cfg.chunk_s, cfg.burn_in_s, identifier.drive_loads());
-  LoadScore load;
+  // The chunks carry the current per-drive values laid out for the big model.
+  const auto chunks = MakeChunks(segments, cfg.chunk_s, cfg.burn_in_s, identify::OverridesFor(identifier.drive_values(), big));
+  std::vector<PerDriveScore> per_drive_scores;
   {
     std::set<int64_t> drives;
     for (const Chunk& c : chunks) drives.insert(c.drive_id);
-    const bool asked = options.candidates.empty() ||
-                       std::find(options.candidates.begin(), options.candidates.end(), model::ModelSpec::kLoadChange) !=
-                           options.candidates.end();
-    load.active = asked && !spec.per_drive_load() && drives.size() >= 2;
+    for (int col : per_drive_cols) {
+      if (drives.size() < 2) break;
+      PerDriveScore pds;
+      pds.col = col;
+      pds.param = big.param_name(col);
+      for (const auto& eff : big.effects())
+        for (const auto& p : eff->info().params)
+          if (p.name == pds.param) pds.effect = eff->info().name;
+      pds.pinned = big.effect_param(col)->pinned_at_reference();
+      per_drive_scores.push_back(std::move(pds));
+    }
+    for (const auto& [effect, param] : alternatives) {
+      if (drives.size() < 2) break;
+      PerDriveScore pds;
+      pds.col = big.param_index(param);
+      pds.param = param;
+      pds.effect = effect;
+      per_drive_scores.push_back(std::move(pds));
+    }
   }
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(np, np);  // A'A
   Eigen::VectorXd Ae = Eigen::VectorXd::Zero(np);     // A'e
@@ -194,9 +244,11 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   bool stacked = false;
   if (two_outputs) {
     std::vector<std::vector<double>> ra, rr;
-    for (const Chunk& c : chunks) {
+    for (Chunk c : chunks) {
       const size_t burn = BurnInSamples(c, cfg.burn_in_s);
       std::vector<double> e, jac;
+      const auto own = identifier.drive_overrides().find(c.drive_id);  // the current model's layout
+      c.drive_params = own != identifier.drive_overrides().end() ? own->second : std::vector<std::pair<int, double>>{};
       EvaluateChunk(c, burn, identifier.wheelbase_m(), spec, params, e, jac, true);
       const size_t na = c.n - burn;
       ra.emplace_back(e.begin(), e.begin() + static_cast<long>(std::min(na, e.size())));
@@ -232,7 +284,7 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
     Eigen::Map<const RowMajor> A(jac.data(), m, np);
     Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
     M += A.transpose() * A;
-    if (load.active) load.Add(c.drive_id, A, ev, x);
+    for (PerDriveScore& pds : per_drive_scores) pds.Add(c.drive_id, A, ev);
     const Eigen::VectorXd ae = A.transpose() * ev;
     Ae += ae;
     chunk_Ae.push_back(ae);
@@ -353,8 +405,8 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
     }
     d.ranked.push_back(s);
   }
-  if (load.active) {
-    d.ranked.push_back(load.Score(JtJ, Jte, fitted, rss, n, chunk_residuals, options.z_threshold));
+  for (const PerDriveScore& pds : per_drive_scores) {
+    d.ranked.push_back(pds.Score(M, Ae, fitted, rss, n, chunk_residuals, options.z_threshold));
   }
   // The a_y RMSE a candidate predicts: the stacked (weighted) RSS falls by drss, the a_y RMSE in
   // proportion (with one output exactly sqrt((rss - drss) / n)).
@@ -483,7 +535,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
   Identifier current(config, wheelbase_m, model::ModelSpec::FromNames(effects, library));
   current.set_standstill(options.standstill);
   IdentificationResult fit = current.Identify(training_in, validation_in, std::optional<std::vector<double>>{});
-  current.set_drive_loads(fit.drive_loads);
+  current.set_drive_values(fit.drive_values);
   if (!fit.valid) {
     ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});
     ladder.stop_reason = "the starting model could not be fitted: " + fit.reason;
@@ -504,7 +556,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       const IdentificationResult refit = current.Identify(training, validation, std::optional<std::vector<double>>(fit.AllValues()));
       if (refit.valid) {
         fit = refit;
-        current.set_drive_loads(fit.drive_loads);
+        current.set_drive_values(fit.drive_values);
       } else {  // keep the data as recorded
         ladder.aligned = false;
         for (RoleLatency& l : ladder.alignment) l.apply = false;
@@ -528,7 +580,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
   auto refit = [&](const std::vector<std::string>& trial) {
     Identifier next(ladder_config, wheelbase_m, model::ModelSpec::FromNames(trial, library));
     next.set_standstill(options.standstill);
-    next.set_drive_loads(fit.drive_loads);  // load_change: start from the current ratios
+    next.set_drive_values(fit.drive_values);  // per-drive parameters: start from the current values
     IdentificationResult f2 =
         next.Identify(training, validation, std::optional<std::vector<double>>(Extend(current.spec(), fit.AllValues(), next.spec())));
     return std::make_pair(std::move(next), std::move(f2));
@@ -544,7 +596,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
     effects = trial;
     current = next;
     fit = f2;
-    current.set_drive_loads(fit.drive_loads);
+    current.set_drive_values(fit.drive_values);
     ladder.rungs.push_back({current.spec().Describe(), added, fit, dbic});
   };
   if (sse.available && !has_speed_prior) {
@@ -601,7 +653,14 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       const bool large = c.rmse_predicted < (1.0 - options.large_effect_rmse_drop) * diag.rmse;
       if ((!c.significant && !large) || tried >= 3) continue;
       ++tried;
-      std::vector<std::string> trial = effects;
+      // An alternative of an effect in the model (gyro_offset_per_drive for gyro_offset) replaces it.
+      std::vector<std::string> trial;
+      for (const std::string& e : effects) {
+        bool shares = false;
+        for (const auto& p : library.Get(e)->info().params)
+          for (const auto& q : library.Get(c.effect)->info().params) shares |= p.name == q.name;
+        if (!shares) trial.push_back(e);
+      }
       trial.push_back(c.effect);
       const auto [next, f2] = refit(trial);
       Trial trial_record;
@@ -629,7 +688,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       spdlog::debug("ladder: + {}: effective samples {:.0f} (tau {:.1f})", c.effect, n_eff,
                     static_cast<double>(f2.residuals_train) / std::max(n_eff, 1.0));
       double dbic = n_eff * std::log((f2.rmse_train_mps2 * f2.rmse_train_mps2) / (fit.rmse_train_mps2 * fit.rmse_train_mps2)) +
-                    (f2.effect_params.size() - fit.effect_params.size()) * std::log(std::max(n_eff + n_eff_r, 2.0));
+                    (static_cast<double>(f2.NumEstimated()) - static_cast<double>(fit.NumEstimated())) * std::log(std::max(n_eff + n_eff_r, 2.0));
       if (both) dbic += n_eff_r * std::log((f2.rmse_train_yaw_radps * f2.rmse_train_yaw_radps) / (fit.rmse_train_yaw_radps * fit.rmse_train_yaw_radps));
       // Effect size on held-out data: one output falls by min_relative_improvement, the other
       // does not rise by more than 1 % (a gyro error shows in the yaw rate, a roll in a_y).

@@ -38,6 +38,7 @@ class ChunkResidual {
   bool operator()(T const* const* theta, T* residuals) const {
     std::vector<T> p(scale_.size());
     for (size_t i = 0; i < scale_.size(); ++i) p[i] = theta[0][i] * scale_[i];
+    chunk_.ApplyDriveParams(p.data());
     std::vector<T> a_y(chunk_.n), r(yaw_ ? chunk_.n : 0);
     model::SimulateModel(spec_, p.data(), wheelbase_m_, chunk_.Inputs(), a_y.data(), nullptr,
                          yaw_ ? r.data() : nullptr);

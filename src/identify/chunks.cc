@@ -69,7 +69,7 @@ std::vector<float> EstimateBank(const stats::Segment& seg, double tau_s) {
 }
 
 std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, double burn_in_s,
-                              const std::map<int64_t, double>& loads) {
+                              const DriveOverrides& drive_values) {
   std::vector<Chunk> chunks;
   for (const stats::Segment* seg : segments) {
     if (seg == nullptr || seg->samples.empty()) continue;
@@ -81,7 +81,7 @@ std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, doubl
       size_t n = std::min(per, total - start);
       if (total - (start + n) < per / 2) n = total - start;  // fold a short tail into this chunk
       Chunk c{seg->samples.data() + start, n, seg->dt_s, seg->drive_id, nullptr};
-      if (const auto it = loads.find(seg->drive_id); it != loads.end()) c.load_ratio = it->second;
+      if (const auto it = drive_values.find(seg->drive_id); it != drive_values.end()) c.drive_params = it->second;
       if (!bank->empty()) {
         c.bank = std::make_shared<const std::vector<float>>(bank->begin() + static_cast<long>(start),
                                                             bank->begin() + static_cast<long>(start + n));

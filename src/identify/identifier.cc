@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -95,7 +96,7 @@ double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const st
 // small, and EG (a nonlinear function of the parameters) moves with it. Two guards: a prior
 // chunk is simulated again when any scaled parameter moved more than kRelinearizeStep from its
 // linearisation point (25 % of a base parameter's initial value, 12.5 % of an effect's box);
-// and the EG check of every incremental solution (Identifier::IdentifyAtLoads) simulates
+// and the EG check of every incremental solution (Identifier::IdentifyAtDriveValues) simulates
 // kEgCheckChunks prior chunks at the solution and asks the error of their predicted scores,
 // scaled to the whole prior, to move EG by at most kEgCheck of its standard deviation.
 constexpr double kRelinearizeStep = 0.25;
@@ -119,6 +120,25 @@ model::Params<double> IdentificationResult::AsParams() const {
   double p[6];
   for (int i = 0; i < 6; ++i) p[i] = params[i].value;
   return model::Params<double>::FromArray(p);
+}
+
+std::vector<double> IdentificationResult::ValuesFor(const model::ModelSpec& spec) const {
+  std::vector<double> v;
+  for (const auto& p : params) v.push_back(p.value);
+  for (int i = model::kNumParams; i < spec.num_params(); ++i) {
+    const std::string name = spec.param_name(i);
+    const auto it = std::find_if(effect_params.begin(), effect_params.end(), [&](const ParameterEstimate& p) { return p.name == name; });
+    v.push_back(it != effect_params.end() ? it->value : spec.effect_param(i)->neutral);
+  }
+  return v;
+}
+
+size_t IdentificationResult::NumEstimated() const {
+  size_t n = 0;
+  for (const auto& p : params) n += p.fixed ? 0 : 1;
+  for (const auto& p : effect_params) n += p.fixed ? 0 : 1;
+  for (const DriveValue& v : drive_values) n += v.reference || v.validation ? 0 : 1;
+  return n;
 }
 
 std::vector<double> IdentificationResult::AllValues() const {
@@ -156,13 +176,13 @@ double Identifier::Rmse(const model::Params<double>& p, const SegmentList& segme
 }
 
 double Identifier::Rmse(const std::vector<double>& params, const SegmentList& segments, size_t* count) const {
-  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_loads_);
+  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_overrides_);
   double sum = 0;
   size_t n = 0;
   std::vector<double> a_y;
   for (const Chunk& c : chunks) {
     a_y.resize(c.n);
-    model::SimulateModel(spec_, params.data(), wheelbase_m_, c.Inputs(), a_y.data());
+    model::SimulateModel(spec_, c.ParamsFor(params).data(), wheelbase_m_, c.Inputs(), a_y.data());
     for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
       const double e = c.samples[k].lat_accel_mps2 - a_y[k];
       sum += e * e;
@@ -174,7 +194,7 @@ double Identifier::Rmse(const std::vector<double>& params, const SegmentList& se
 }
 
 double Identifier::RmseYawRate(const std::vector<double>& params, const SegmentList& segments, size_t* count) const {
-  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_loads_);
+  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_overrides_);
   double sum = 0;
   size_t n = 0;
   std::vector<double> a_y, r;
@@ -182,7 +202,7 @@ double Identifier::RmseYawRate(const std::vector<double>& params, const SegmentL
     if (!c.has_yaw_rate()) continue;
     a_y.resize(c.n);
     r.resize(c.n);
-    model::SimulateModel(spec_, params.data(), wheelbase_m_, c.Inputs(), a_y.data(), nullptr, r.data());
+    model::SimulateModel(spec_, c.ParamsFor(params).data(), wheelbase_m_, c.Inputs(), a_y.data(), nullptr, r.data());
     for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
       const double e = c.samples[k].yaw_rate_radps - r[k];
       sum += e * e;
@@ -201,140 +221,274 @@ IdentificationResult Identifier::Identify(const SegmentList& training, const Seg
 
 IdentificationResult Identifier::Identify(const SegmentList& training, const SegmentList& validation,
                                           const std::optional<std::vector<double>>& warm_start) const {
-  return spec_.per_drive_load() ? IdentifyWithDriveLoads(training, validation, warm_start)
-                                : IdentifyAtLoads(training, validation, warm_start);
+  return spec_.per_drive_params().empty() ? IdentifyAtDriveValues(training, validation, warm_start)
+                                         : IdentifyPerDrive(training, validation, warm_start);
 }
 
 IdentificationResult Identifier::Identify(const SegmentList& training, const SegmentList& validation,
                                           const std::optional<std::vector<double>>& warm_start,
                                           const IncrementalUpdate& update) const {
-  if (spec_.per_drive_load()) return IdentifyWithDriveLoads(training, validation, warm_start);
-  return IdentifyAtLoads(training, validation, warm_start, &update);
+  if (!spec_.per_drive_params().empty()) return IdentifyPerDrive(training, validation, warm_start);
+  return IdentifyAtDriveValues(training, validation, warm_start, &update);
 }
 
-void Identifier::set_drive_loads(const std::vector<DriveLoad>& loads) {
-  drive_loads_.clear();
-  for (const DriveLoad& l : loads) drive_loads_[l.drive_id] = l.ratio;
-}
-
-DriveLoad Identifier::FitDriveLoad(const std::vector<double>& params, const SegmentList& segments, int64_t drive,
-                                   double start) const {
-  DriveLoad out;
-  out.drive_id = drive;
-  out.ratio = start;
-  std::map<int64_t, double> loads = drive_loads_;
-  // Residuals and d(a_y,model)/d(ratio) over the drive's chunks at ratio rho.
-  auto evaluate = [&](double rho, std::vector<std::vector<double>>& e, std::vector<double>& z) {
-    constexpr double kStep = 1e-4;
-    e.clear();
-    z.clear();
-    std::vector<double> y0, y1;
-    for (double r : {rho, rho * (1 + kStep)}) {
-      loads[drive] = r;
-      for (const Chunk& c : MakeChunks(segments, config_.chunk_s, config_.burn_in_s, loads)) {
-        std::vector<double> a_y(c.n);
-        model::SimulateModel(spec_, params.data(), wheelbase_m_, c.Inputs(), a_y.data());
-        std::vector<double> res;
-        for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
-          (r == rho ? y0 : y1).push_back(a_y[k]);
-          if (r == rho) res.push_back(c.samples[k].lat_accel_mps2 - a_y[k]);
-        }
-        if (r == rho) e.push_back(std::move(res));
-      }
-    }
-    for (size_t k = 0; k < y0.size(); ++k) z.push_back((y1[k] - y0[k]) / (rho * kStep));
-  };
-  std::vector<std::vector<double>> e;
-  std::vector<double> z;
-  double ztz = 0;
-  for (int it = 0; it < 8; ++it) {
-    evaluate(out.ratio, e, z);
-    double zte = 0;
-    ztz = 0;
-    size_t k = 0;
-    for (const auto& chunk : e) {
-      for (double x : chunk) {
-        zte += z[k] * x;
-        ztz += z[k] * z[k];
-        ++k;
-      }
-    }
-    if (!(ztz > 0)) break;
-    const double next = std::clamp(out.ratio + zte / ztz, 0.5, 2.0);
-    const double step = next - out.ratio;
-    out.ratio = next;
-    if (std::abs(step) < 1e-5) break;
+DriveOverrides OverridesFor(const std::vector<DriveValue>& values, const model::ModelSpec& spec) {
+  DriveOverrides out;
+  for (const DriveValue& v : values) {
+    if (v.reference) continue;  // the reference drive's values are the parameter vector's
+    const int i = spec.param_index(v.param);
+    const model::EffectParam* ep = i >= 0 ? spec.effect_param(i) : nullptr;
+    if (ep && ep->per_drive) out[v.drive_id].emplace_back(i, v.value);
   }
-  evaluate(out.ratio, e, z);
-  if (ztz > 0) out.se = std::sqrt(ResidualNoiseLevel(e) / ztz);
   return out;
 }
 
-IdentificationResult Identifier::IdentifyWithDriveLoads(const SegmentList& training, const SegmentList& validation,
-                                                        const std::optional<std::vector<double>>& warm_start) const {
+void Identifier::set_drive_values(const std::vector<DriveValue>& values) {
+  drive_values_ = values;
+  drive_overrides_ = OverridesFor(values, spec_);
+}
+
+namespace {
+
+// The scale of a per-drive parameter: its neutral magnitude or half its box, whichever is larger
+// (a load ratio: 1). Steps and tolerances of the per-drive fits are relative to it.
+double PerDriveScale(const model::EffectParam& p) {
+  return std::max(std::abs(p.neutral), 0.5 * (p.upper - p.lower));
+}
+
+}  // namespace
+
+std::vector<DriveValue> Identifier::FitDriveValues(const std::vector<double>& params, const SegmentList& segments,
+                                                   int64_t drive, const std::vector<int>& which, std::vector<double> x,
+                                                   const std::pair<double, double>& weights) const {
+  const size_t k = which.size();
+  const bool yaw = weights.second > 0;
+  // The drive's chunks, simulated at `params` with x in the entries `which`.
+  const std::vector<Chunk> chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s);
+  // Weighted residuals (stacked: per chunk a_y, then its yaw rate) in e, one series per chunk
+  // and output in series, the weighted model outputs in y.
+  auto evaluate = [&](const std::vector<double>& at, std::vector<double>& y, std::vector<double>* e,
+                      std::vector<std::vector<double>>* series) {
+    std::vector<double> p = params;
+    for (size_t j = 0; j < k; ++j) p[static_cast<size_t>(which[j])] = at[j];
+    y.clear();
+    if (e) e->clear();
+    if (series) series->clear();
+    std::vector<double> a_y, r;
+    for (const Chunk& c : chunks) {
+      const bool with_r = yaw && c.has_yaw_rate();
+      a_y.resize(c.n);
+      r.resize(c.n);
+      model::SimulateModel(spec_, p.data(), wheelbase_m_, c.Inputs(), a_y.data(), nullptr, with_r ? r.data() : nullptr);
+      const size_t burn = BurnInSamples(c, config_.burn_in_s);
+      for (int out = 0; out < (with_r ? 2 : 1); ++out) {
+        const double w = out == 0 ? weights.first : weights.second;
+        std::vector<double> res;
+        for (size_t t = burn; t < c.n; ++t) {
+          const double model_out = out == 0 ? a_y[t] : r[t];
+          const double meas = out == 0 ? c.samples[t].lat_accel_mps2 : c.samples[t].yaw_rate_radps;
+          y.push_back(w * model_out);
+          res.push_back(w * (meas - model_out));
+        }
+        if (e) e->insert(e->end(), res.begin(), res.end());
+        if (series) series->push_back(std::move(res));
+      }
+    }
+  };
+  std::vector<double> scale(k), lower(k), upper(k);
+  for (size_t j = 0; j < k; ++j) {
+    const model::EffectParam* ep = spec_.effect_param(which[j]);
+    scale[j] = PerDriveScale(*ep);
+    lower[j] = ep->lower;
+    upper[j] = ep->upper;
+  }
+  // Standstill evidence of this drive's stops on its own values (as Identify's on the vector's),
+  // as a pseudo-observation in the residuals' units: level (value - x)^2 / sd^2.
+  std::vector<std::pair<size_t, StandstillPrior>> evidence;
+  for (const StandstillPrior& sp : StandstillPriors({drive})) {
+    const bool configured = std::any_of(config_.priors.begin(), config_.priors.end(),
+                                        [&](const config::ParameterPrior& pr) { return pr.name == sp.param; });
+    for (size_t j = 0; j < k && !configured; ++j)
+      if (spec_.param_name(which[j]) == sp.param) evidence.emplace_back(j, sp);
+  }
+  std::vector<double> y0, y1, e;
+  std::vector<std::vector<double>> series;
+  double level = 0;
+  Eigen::MatrixXd ztz = Eigen::MatrixXd::Zero(static_cast<long>(k), static_cast<long>(k));
+  // Sensitivities z_j = d(model)/d(x_j) by forward differences, Z'Z and Z'e.
+  auto linearise = [&](Eigen::VectorXd& zte) {
+    evaluate(x, y0, &e, &series);
+    level = ResidualNoiseLevel(series);
+    Eigen::MatrixXd z(static_cast<long>(y0.size()), static_cast<long>(k));
+    for (size_t j = 0; j < k; ++j) {
+      const double h = 1e-4 * std::max(std::abs(x[j]), scale[j]);
+      std::vector<double> xj = x;
+      xj[j] += h;
+      evaluate(xj, y1, nullptr, nullptr);
+      for (size_t t = 0; t < y0.size(); ++t) z(static_cast<long>(t), static_cast<long>(j)) = (y1[t] - y0[t]) / h;
+    }
+    ztz = z.transpose() * z;
+    zte = z.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data(), static_cast<long>(e.size()));
+    for (const auto& [j, sp] : evidence) {
+      const long jj = static_cast<long>(j);
+      ztz(jj, jj) += level / (sp.sd * sp.sd);
+      zte[jj] += level * (sp.value - x[j]) / (sp.sd * sp.sd);
+    }
+  };
+  Eigen::VectorXd zte;
+  for (int it = 0; it < 8; ++it) {
+    linearise(zte);
+    if (!(ztz.trace() > 0)) break;
+    const Eigen::VectorXd step = ztz.completeOrthogonalDecomposition().solve(zte);
+    double largest = 0;
+    for (size_t j = 0; j < k; ++j) {
+      const double next = std::clamp(x[j] + step[static_cast<long>(j)], lower[j], upper[j]);
+      largest = std::max(largest, std::abs(next - x[j]) / scale[j]);
+      x[j] = next;
+    }
+    if (largest < 1e-5) break;
+  }
+  linearise(zte);
+  const Eigen::MatrixXd cov = ztz.completeOrthogonalDecomposition().pseudoInverse() * level;
+  std::vector<DriveValue> out;
+  for (size_t j = 0; j < k; ++j) {
+    DriveValue v;
+    v.drive_id = drive;
+    v.param = spec_.param_name(which[j]);
+    v.value = x[j];
+    // Not determined (the drive's data do not see it, e.g. a gyro offset without a yaw rate):
+    // the start value stays, with no standard error (NaN, null in JSON).
+    const long jj = static_cast<long>(j);
+    v.se = ztz(jj, jj) > 0 ? std::sqrt(std::max(0.0, cov(jj, jj))) : std::numeric_limits<double>::quiet_NaN();
+    out.push_back(v);
+  }
+  return out;
+}
+
+IdentificationResult Identifier::IdentifyPerDrive(const SegmentList& training, const SegmentList& validation,
+                                                  const std::optional<std::vector<double>>& warm_start) const {
+  const std::vector<int>& per_drive = spec_.per_drive_params();
+  std::string names;
+  for (int i : per_drive) names += (names.empty() ? "" : ", ") + spec_.param_name(i);
   std::map<int64_t, SegmentList> train_drives, held_out_drives;
   for (const stats::Segment* s : training) train_drives[s->drive_id].push_back(s);
   for (const stats::Segment* s : validation) held_out_drives[s->drive_id].push_back(s);
-  Identifier work = *this;  // starts from the ratios already set (set_drive_loads), else 1
+  Identifier work = *this;  // starts from the values already set (set_drive_values)
   if (train_drives.size() < 2) {
-    work.drive_loads_.clear();
-    IdentificationResult r = work.IdentifyAtLoads(training, validation, warm_start);
-    r.identifiability.notes.push_back("load_change: one training drive, no load ratio to estimate");
+    work.set_drive_values({});
+    IdentificationResult r = work.IdentifyAtDriveValues(training, validation, warm_start);
+    r.identifiability.notes.push_back("per drive (" + names + "): one training drive, no per-drive value to estimate");
     return r;
   }
-  // The reference: the first training drive (its load is the one the parameters describe).
+  // The reference: the first training drive (the parameter vector and EG describe it).
   const int64_t reference = train_drives.begin()->first;
+  std::vector<int> pinned;  // per-drive parameters with a common mode: held at neutral on the reference
+  for (int i : per_drive)
+    if (spec_.effect_param(i)->pinned_at_reference()) pinned.push_back(i);
+  // The current value of parameter i on a drive: its override, else the vector's.
+  auto current = [&](const Identifier& id, int64_t drive, int i, const std::vector<double>& vec) {
+    if (const auto it = id.drive_overrides_.find(drive); it != id.drive_overrides_.end()) {
+      for (const auto& [j, v] : it->second)
+        if (j == i) return v;
+    }
+    return vec[static_cast<size_t>(i)];
+  };
+  auto output_weights = [](const IdentificationResult& f) {
+    if (f.yaw_rate_output && f.noise_level_a_y > 0 && f.noise_level_yaw_rate > 0)
+      return std::make_pair(1.0 / std::sqrt(f.noise_level_a_y), 1.0 / std::sqrt(f.noise_level_yaw_rate));
+    return std::make_pair(1.0, 0.0);
+  };
   std::optional<std::vector<double>> start = warm_start;
-  std::vector<DriveLoad> loads;
+  std::vector<DriveValue> values_out;
   IdentificationResult fit;
-  // Alternate: the shared parameters at the current ratios, then every drive's ratio with the
-  // parameters held. The common mode (all drives heavier) is exactly a scaling of cv and ch
-  // (a load ratio scales the tyre forces by its inverse), so the ratios are renormalised to the
-  // reference drive and cv, ch rescaled to match before the next fit: that direction, along
-  // which plain alternation crawls, is taken in one step.
+  // Alternate: the shared parameters with every drive's values held, then each drive's values
+  // with the shared parameters held. A pinned parameter is fitted on the reference drive too:
+  // its value c there is the common mode (all drives alike), exactly the base parameters of its
+  // EffectParam::common_mode scaled by c^power, so every drive's value is divided by c and those
+  // parameters rescaled before the next shared fit. That direction, along which plain
+  // alternation crawls, is taken in one step.
   for (int round = 0; round < 5; ++round) {
-    fit = work.IdentifyAtLoads(training, {}, start);
+    fit = work.IdentifyAtDriveValues(training, {}, start);
     if (!fit.valid) return fit;
     std::vector<double> values = fit.AllValues();
-    std::vector<DriveLoad> fitted;
+    const auto weights = output_weights(fit);
+    std::map<int64_t, std::vector<DriveValue>> fitted;
     for (const auto& [drive, segments] : train_drives) {
-      const auto it = work.drive_loads_.find(drive);
-      fitted.push_back(work.FitDriveLoad(values, segments, drive, it != work.drive_loads_.end() ? it->second : 1.0));
+      const std::vector<int>& which = drive == reference ? pinned : per_drive;
+      if (which.empty()) continue;
+      std::vector<double> x;
+      for (int i : which) x.push_back(current(work, drive, i, values));
+      fitted[drive] = work.FitDriveValues(values, segments, drive, which, x, weights);
     }
-    const double ref_ratio = fitted.front().ratio;  // train_drives is ordered: the reference first
+    double worst_common = 0;
+    for (int i : pinned) {
+      const model::EffectParam* ep = spec_.effect_param(i);
+      double c = 1;
+      for (const DriveValue& v : fitted[reference])
+        if (v.param == ep->name && ep->neutral != 0) c = v.value / ep->neutral;
+      for (auto& [drive, list] : fitted) {
+        for (DriveValue& v : list) {
+          if (v.param != ep->name) continue;
+          v.value /= c;
+          v.se /= c;
+        }
+      }
+      for (const model::EffectParam::Power& pw : ep->common_mode) values[static_cast<size_t>(pw.base_param)] *= std::pow(c, pw.power);
+      worst_common = std::max(worst_common, std::abs(c - 1));
+      spdlog::debug("per drive round {}: {} common mode {:.4f}", round, ep->name, c);
+    }
     double change = 0;
-    loads.clear();
-    for (DriveLoad l : fitted) {
-      const auto it = work.drive_loads_.find(l.drive_id);
-      l.ratio /= ref_ratio;
-      l.se /= ref_ratio;
-      l.reference = l.drive_id == reference;
-      if (l.reference) l.se = 0;
-      change = std::max(change, std::abs(l.ratio - (it != work.drive_loads_.end() ? it->second : 1.0)));
-      loads.push_back(l);
+    values_out.clear();
+    for (const auto& [drive, list] : fitted) {
+      for (DriveValue v : list) {
+        const int i = spec_.param_index(v.param);
+        if (drive == reference) {  // a pinned parameter: neutral on the reference after the gauge
+          v.value = spec_.effect_param(i)->neutral;
+          v.se = 0;
+          v.reference = true;
+        } else {
+          change = std::max(change, std::abs(v.value - current(work, drive, i, fit.AllValues())) /
+                                        PerDriveScale(*spec_.effect_param(i)));
+        }
+        values_out.push_back(v);
+      }
     }
-    values[model::kStiffFront] /= ref_ratio;
-    values[model::kStiffRear] /= ref_ratio;
     start = values;
-    work.set_drive_loads(loads);
-    spdlog::debug("load_change round {}: reference ratio {:.4f}, largest ratio change {:.4f}", round, ref_ratio, change);
-    if (change < 1e-3 && std::abs(ref_ratio - 1) < 1e-3) break;
+    work.set_drive_values(values_out);
+    spdlog::debug("per drive round {}: largest change {:.4g}", round, change);
+    if (change < 1e-3 && worst_common < 1e-3) break;
   }
-  fit = work.IdentifyAtLoads(training, {}, start);
+  fit = work.IdentifyAtDriveValues(training, {}, start);
   if (!fit.valid) return fit;
-  // Held-out drives: their own load, fitted with the parameters held, then the RMSE.
+  const std::vector<double> shared = fit.AllValues();
+  // The reference drive's values of the parameters it fits (not pinned): the vector's.
+  for (int i : per_drive) {
+    if (std::find(pinned.begin(), pinned.end(), i) != pinned.end()) continue;
+    const ParameterEstimate& pe = fit.effect_params[static_cast<size_t>(i - model::kNumParams)];
+    values_out.push_back({reference, pe.name, pe.value, pe.se, true, false});
+  }
+  std::stable_sort(values_out.begin(), values_out.end(),
+                   [](const DriveValue& a, const DriveValue& b) { return a.drive_id < b.drive_id; });
+  // Held-out drives: their own values, fitted with the shared parameters held, then the RMSE.
+  const auto weights = output_weights(fit);
   for (const auto& [drive, segments] : held_out_drives) {
     if (train_drives.count(drive)) continue;
-    DriveLoad l = work.FitDriveLoad(fit.AllValues(), segments, drive, 1.0);
-    l.validation = true;
-    loads.push_back(l);
+    std::vector<double> x;
+    for (int i : per_drive) x.push_back(shared[static_cast<size_t>(i)]);
+    for (DriveValue v : work.FitDriveValues(shared, segments, drive, per_drive, x, weights)) {
+      v.validation = true;
+      values_out.push_back(v);
+    }
   }
-  work.set_drive_loads(loads);
-  fit.drive_loads = loads;
-  if (!validation.empty()) fit.rmse_validation_mps2 = work.Rmse(fit.AllValues(), validation, &fit.residuals_validation);
+  work.set_drive_values(values_out);
+  fit.drive_values = values_out;
+  if (!validation.empty()) {
+    fit.rmse_validation_mps2 = work.Rmse(shared, validation, &fit.residuals_validation);
+    if (fit.yaw_rate_output) fit.rmse_validation_yaw_radps = work.RmseYawRate(shared, validation);
+  }
   fit.identifiability.notes.push_back(
-      "load_change: m and Jz per drive relative to drive " + std::to_string(reference) +
-      " (the parameters and EG describe its load); ratio standard errors are conditional on the shared parameters");
+      "per drive (" + names + "): a value per drive; the parameter vector and EG describe drive " +
+      std::to_string(reference) + "; the per-drive standard errors are conditional on the shared parameters");
   return fit;
 }
 
@@ -373,7 +527,7 @@ std::vector<Identifier::StandstillPrior> Identifier::StandstillPriors(const std:
   return out;
 }
 
-IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, const SegmentList& validation,
+IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& training, const SegmentList& validation,
                                                  const std::optional<std::vector<double>>& warm_start,
                                                  const IncrementalUpdate* update) const {
   IdentificationResult r;
@@ -391,7 +545,12 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
       scale[i] = c.initial;
     } else {
       const model::EffectParam* e = spec_.effect_param(i);
-      bounds[i] = {e->lower, e->upper, e->initial, false};
+      // A per-drive parameter with a common mode is neutral on the reference drive (effect.h).
+      if (e->pinned_at_reference()) {
+        bounds[i] = {e->lower, e->upper, e->neutral, true};
+      } else {
+        bounds[i] = {e->lower, e->upper, e->initial, false};
+      }
       scale[i] = 0.5 * (e->upper - e->lower);
     }
   }
@@ -404,7 +563,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
 
   // Incremental update (docs/incremental.md): the training segments the prior holds enter the
   // fit as their chunks' quadratics; the others are simulated.
-  const LinearizedWindow* prior = update && update->prior && drive_loads_.empty() &&
+  const LinearizedWindow* prior = update && update->prior && drive_overrides_.empty() &&
                                           update->prior->Compatible(r.model, scale, config_.chunk_s, config_.burn_in_s)
                                       ? update->prior.get()
                                       : nullptr;
@@ -493,7 +652,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   std::vector<const stats::Segment*> chunk_segment;  // the segment each chunk was cut from
   auto cut = [&](const SegmentList& segs) {
     for (const stats::Segment* seg : segs) {
-      for (const Chunk& c : MakeChunks({seg}, config_.chunk_s, config_.burn_in_s, drive_loads_)) {
+      for (const Chunk& c : MakeChunks({seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_)) {
         chunks.push_back(c);
         chunk_segment.push_back(seg);
       }
@@ -521,7 +680,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   if (prior && two_outputs != (prior->weight_yaw_rate > 0)) {
     IncrementalUpdate whole = *update;
     whole.prior = nullptr;
-    return IdentifyAtLoads(training, validation, warm_start, &whole);
+    return IdentifyAtDriveValues(training, validation, warm_start, &whole);
   }
   auto weights = std::make_shared<OutputWeights>();
   weights->yaw_rate = two_outputs ? 1.0 : 0.0;
@@ -612,11 +771,23 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
   std::set<int64_t> training_drives;
   for (const stats::Segment* seg : training) training_drives.insert(seg->drive_id);
   std::vector<std::string> evidence_notes;
-  for (const StandstillPrior& sp : StandstillPriors(training_drives)) {
+  // A per-drive parameter's entry of the vector is the value of the drives that have no value of
+  // their own (the reference drive; every drive before the first per-drive fit): their stops.
+  std::set<int64_t> slot_drives;
+  for (int64_t d : training_drives)
+    if (!drive_overrides_.count(d)) slot_drives.insert(d);
+  const std::vector<StandstillPrior> slot_evidence = StandstillPriors(slot_drives);
+  for (StandstillPrior sp : StandstillPriors(training_drives)) {
     const bool configured = std::any_of(config_.priors.begin(), config_.priors.end(),
                                         [&](const config::ParameterPrior& pr) { return pr.name == sp.param; });
     for (int i = model::kNumParams; i < np && !configured; ++i) {
-      if (spec_.param_name(i) != sp.param) continue;
+      if (spec_.param_name(i) != sp.param || bounds[i].fixed) continue;
+      if (spec_.effect_param(i)->per_drive && slot_drives.size() != training_drives.size()) {
+        const auto it = std::find_if(slot_evidence.begin(), slot_evidence.end(),
+                                     [&](const StandstillPrior& x) { return x.param == sp.param; });
+        if (it == slot_evidence.end()) continue;
+        sp = *it;
+      }
       priors.push_back(std::make_unique<PriorCost>(np, i, scale[i], sp.value, sp.sd));
       problem.AddResidualBlock(priors.back().get(), nullptr, theta.data());
       char note[256];
@@ -700,7 +871,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
       const auto [i, k] = all[a];
       auto it = cut_segments.find(from_prior[i].seg);
       if (it == cut_segments.end())
-        it = cut_segments.emplace(from_prior[i].seg, MakeChunks({from_prior[i].seg}, config_.chunk_s, config_.burn_in_s, drive_loads_)).first;
+        it = cut_segments.emplace(from_prior[i].seg, MakeChunks({from_prior[i].seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_)).first;
       if (k >= it->second.size()) continue;
       const LinearizedChunk& lc = from_prior[i].lin->chunks[k];
       auto cost = MakeChunkCost(it->second[k], BurnInSamples(it->second[k], config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
@@ -828,7 +999,7 @@ IdentificationResult Identifier::IdentifyAtLoads(const SegmentList& training, co
         n_res_a += c.n_a_y;
         if (!c.acf_a_y.empty()) AddSums(c.acf_a_y, acf_a);
         if (!c.acf_yaw_rate.empty()) AddSums(c.acf_yaw_rate, acf_r);
-        r.train_hours += (c.n_a_y + BurnInSamples(Chunk{nullptr, 0, ps.seg->dt_s, 0, nullptr}, config_.burn_in_s)) *
+        r.train_hours += (c.n_a_y + BurnInSamples(Chunk{nullptr, 0, ps.seg->dt_s, 0, nullptr, {}}, config_.burn_in_s)) *
                          ps.seg->dt_s / 3600.0;
         ++r.chunks_from_prior;
       }

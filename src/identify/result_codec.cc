@@ -45,10 +45,10 @@ nlohmann::json ResultToJson(const IdentificationResult& f) {
   }
   for (const auto& p : f.effect_params) j["parameters"].push_back(ParamJson(p));
   j["values"] = f.AllValues();  // the parameters' values alone, base then effects (ModelSpec layout)
-  j["drive_loads"] = nlohmann::json::array();  // load_change: per-drive m, Jz ratio to the reference drive
-  for (const auto& l : f.drive_loads) {
-    j["drive_loads"].push_back({{"drive", l.drive_id}, {"ratio", l.ratio}, {"se", l.se}, {"reference", l.reference},
-                                {"held_out", l.validation}});
+  j["drive_values"] = nlohmann::json::array();  // per-drive parameters (e.g. load_change's load_ratio)
+  for (const auto& v : f.drive_values) {
+    j["drive_values"].push_back({{"drive", v.drive_id}, {"param", v.param}, {"value", v.value}, {"se", v.se},
+                                 {"reference", v.reference}, {"held_out", v.validation}});
   }
   j["correlation"] = f.correlation;
   j["rmse_train_mps2"] = f.rmse_train_mps2;
@@ -105,10 +105,20 @@ IdentificationResult ResultFromJson(const JsonIn& in) {
       f.effect_params.push_back(std::move(p));
     }
   }
-  const JsonIn loads = in.At("drive_loads");
-  for (size_t i = 0, nl = loads.Size(kMaxListed); i < nl; ++i) {
-    const JsonIn l = loads.At(i);
-    f.drive_loads.push_back(DriveLoad{l.Int64("drive"), l.Number("ratio"), l.Number("se"), l.Bool("reference"), l.Bool("held_out")});
+  if (in.Has("drive_values")) {
+    const JsonIn values = in.At("drive_values");
+    for (size_t i = 0, nv = values.Size(kMaxListed); i < nv; ++i) {
+      const JsonIn v = values.At(i);
+      f.drive_values.push_back(DriveValue{v.Int64("drive"), v.String("param"), v.Number("value"), v.Number("se"),
+                                          v.Bool("reference"), v.Bool("held_out")});
+    }
+  } else {  // before per-drive parameters were generic: load_change's ratios as "drive_loads"
+    const JsonIn loads = in.At("drive_loads");
+    for (size_t i = 0, nl = loads.Size(kMaxListed); i < nl; ++i) {
+      const JsonIn l = loads.At(i);
+      f.drive_values.push_back(DriveValue{l.Int64("drive"), "load_ratio", l.Number("ratio"), l.Number("se"),
+                                          l.Bool("reference"), l.Bool("held_out")});
+    }
   }
   f.correlation = in.At("correlation").Numbers(n * n);
   if (!f.correlation.empty() && f.correlation.size() != n * n) in.At("correlation").Fail("not " + std::to_string(n) + " x " + std::to_string(n));

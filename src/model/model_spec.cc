@@ -21,17 +21,25 @@ ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names, const Effe
   spec.library_ = library;
   int p = kNumParams, s = 0;
   for (const std::string& name : sorted) {
-    if (name == kLoadChange) {
-      spec.per_drive_load_ = true;
-      continue;
-    }
     auto effect = library.Get(name);
+    for (size_t i = 0; i < effect->info().params.size(); ++i) {
+      if (effect->info().params[i].per_drive) spec.per_drive_params_.push_back(p + static_cast<int>(i));
+    }
     spec.param_offsets_.push_back(p);
     spec.state_offsets_.push_back(s);
     p += static_cast<int>(effect->info().params.size());
     s += effect->info().num_states;
     spec.effects_.push_back(std::move(effect));
   }
+  // One parameter, one meaning: two effects with a parameter of the same name (gyro_offset and
+  // gyro_offset_per_drive) are alternatives, not a combination.
+  for (size_t a = 0; a < spec.effects_.size(); ++a)
+    for (size_t b = 0; b < a; ++b)
+      for (const auto& pa : spec.effects_[a]->info().params)
+        for (const auto& pb : spec.effects_[b]->info().params)
+          if (pa.name == pb.name)
+            throw ConfigError("effects '" + spec.effects_[b]->info().name + "' and '" + spec.effects_[a]->info().name +
+                              "' share the parameter '" + pa.name + "': list one of them");
   spec.num_effect_params_ = p - kNumParams;
   spec.num_states_ = s;
   return spec;
@@ -40,7 +48,6 @@ ModelSpec ModelSpec::FromNames(const std::vector<std::string>& names, const Effe
 std::vector<std::string> ModelSpec::effect_names() const {
   std::vector<std::string> out;
   for (const auto& e : effects_) out.push_back(e->info().name);
-  if (per_drive_load_) out.push_back(kLoadChange);
   return out;
 }
 
@@ -51,6 +58,12 @@ const EffectParam* ModelSpec::effect_param(int i) const {
     if (i >= off && i < off + static_cast<int>(params.size())) return &params[static_cast<size_t>(i - off)];
   }
   return nullptr;
+}
+
+int ModelSpec::param_index(const std::string& name) const {
+  for (int i = 0; i < num_params(); ++i)
+    if (param_name(i) == name) return i;
+  return -1;
 }
 
 std::string ModelSpec::param_name(int i) const {
@@ -68,7 +81,6 @@ std::string ModelSpec::param_unit(int i) const {
 std::string ModelSpec::Describe() const {
   std::string d = "single-track";
   for (const auto& e : effects_) d += " + " + e->info().name;
-  if (per_drive_load_) d += std::string(" + ") + kLoadChange;
   return d;
 }
 

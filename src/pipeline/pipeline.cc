@@ -178,7 +178,7 @@ WindowSnapshot Pipeline::Snapshot() const {
 }
 
 std::optional<std::vector<double>> Pipeline::WarmStart() const {
-  if (last_ && last_->fit.valid) return last_->fit.AllValues();
+  if (last_ && last_->fit.valid) return last_->fit.ValuesFor(identifier_.spec());  // restored: maybe another model
   const bool yaw = config_.role(config::Role::kYawRate) != nullptr;
   const auto ss = accumulator_.steady_state().Estimate(config_.vehicle.wheelbase_m, yaw);
   if (ss.valid) return identifier_.FullVector(identifier_.WarmStart(ss.steer_ratio, ss.eg_rad_per_mps2));

@@ -147,8 +147,9 @@ struct Daemon::Impl {
   void SetMonitorModel(const identify::IdentificationResult& fit) {
     if (pipe().identifier().spec().effects().empty()) return;
     auto id = std::make_shared<identify::Identifier>(pipe().identifier());
-    id->set_drive_loads(fit.drive_loads);
-    monitor->SetModel(std::move(id), fit.AllValues());
+    id->set_drive_values(fit.drive_values);
+    std::vector<double> values = fit.ValuesFor(id->spec());  // a restored fit may be of another model
+    monitor->SetModel(std::move(id), std::move(values));
   }
 
   void AttachMonitor() {

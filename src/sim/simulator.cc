@@ -94,7 +94,15 @@ DriveResult SimulateDrive(const config::SimulationConfig& cfg, const DriverProfi
   steer_noise.Reset(driver_rng);
   speed_noise.Reset(driver_rng);
 
-  SensorModel sensors(cfg, dt, sensor_rng);
+  // The gyro's offset on this drive: r0 plus a per-drive part from a stream of its own (the other
+  // streams, and so every other draw, are the same with and without it).
+  config::SimulationConfig drive_cfg = cfg;
+  if (cfg.effects.gyro_offset_drive_degps > 0) {
+    Rng gyro_rng(MixSeed(cfg.seed, 1003 + 8 * static_cast<uint64_t>(index)));
+    drive_cfg.effects.gyro_offset_degps += gyro_rng.Uniform(-1.0, 1.0) * cfg.effects.gyro_offset_drive_degps;
+  }
+  result.gyro_offset_degps = drive_cfg.effects.gyro_offset_degps;
+  SensorModel sensors(drive_cfg, dt, sensor_rng);
   TruthState x;
   PathState path;
   double v = 0.0, a_x = 0.0, steer = 0.0, s_release = -1.0, stop_timer = 0.0, reverse_done = 0.0;

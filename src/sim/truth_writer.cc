@@ -28,7 +28,7 @@ std::string Num(double x, int digits = 6) {
 }  // namespace
 
 void TruthSummary::Add(const DriveResult& d) {
-  drives_.push_back({d.index, d.start_epoch_ns, d.driver, d.params, d.self_steer_gradient, d.stats});
+  drives_.push_back({d.index, d.start_epoch_ns, d.driver, d.params, d.self_steer_gradient, d.stats, d.gyro_offset_degps});
   const auto& s = d.series;
   for (size_t i = 0; i < s.size(); ++i) {
     if (std::fabs(s.speed_mps[i]) <= 1.0) continue;
@@ -164,6 +164,7 @@ std::string TruthYaml(const config::SimulationConfig& c, const std::vector<Drive
     y << "    start_epoch_s: " << Num(start, 16) << "\n    end_epoch_s: " << Num(start + s.duration_s, 16) << "\n";
     y << "    driver: " << d.driver << "\n    mass_kg: " << Num(d.params.m) << "\n    yaw_inertia_kgm2: "
       << Num(d.params.Jz) << "\n";
+    if (c.effects.gyro_offset_drive_degps > 0) y << "    gyro_offset_degps: " << Num(d.gyro_offset_degps, 6) << "\n";
     y << "    self_steer_gradient_rad_per_mps2: " << Num(d.self_steer_gradient, 8)
       << "\n    self_steer_gradient_deg_per_g: " << Num(model::EgToDegPerG(d.self_steer_gradient), 8) << "\n";
     y << "    distance_km: " << Num(s.distance_km, 5) << "\n    duration_s: " << Num(s.duration_s, 6)

@@ -43,15 +43,20 @@ TEST(LoadChange, RatiosPerDriveAndEgAtTheReferenceLoad) {
   const identify::Identifier with(cfg, kWheelbase, model::ModelSpec::FromNames({"load_change"}));
   const auto fit = with.Identify(Pointers(train), Pointers(held_out), base_fit.AllValues());
   ASSERT_TRUE(fit.valid) << fit.reason;
-  ASSERT_EQ(fit.drive_loads.size(), 3u);
+  ASSERT_EQ(fit.drive_values.size(), 3u);
   const double truth[] = {1.0, 1.15, 1.08};
-  for (const auto& l : fit.drive_loads) {
-    std::printf("drive %lld: %.4f ± %.4f%s%s\n", static_cast<long long>(l.drive_id), l.ratio, l.se,
+  for (const auto& l : fit.drive_values) {
+    std::printf("drive %lld: %s %.4f ± %.4f%s%s\n", static_cast<long long>(l.drive_id), l.param.c_str(), l.value, l.se,
                 l.reference ? " (reference)" : "", l.validation ? " (held out)" : "");
-    EXPECT_NEAR(l.ratio, truth[l.drive_id], 0.005) << l.drive_id;
+    EXPECT_EQ(l.param, "load_ratio");
+    EXPECT_NEAR(l.value, truth[l.drive_id], 0.005) << l.drive_id;
   }
-  EXPECT_TRUE(fit.drive_loads[0].reference);
-  EXPECT_TRUE(fit.drive_loads[2].validation);
+  EXPECT_TRUE(fit.drive_values[0].reference);
+  EXPECT_TRUE(fit.drive_values[2].validation);
+  // The slot of the parameter vector is the reference drive's: neutral, held.
+  ASSERT_EQ(fit.effect_params.size(), 1u);
+  EXPECT_EQ(fit.effect_params[0].value, 1.0);
+  EXPECT_TRUE(fit.effect_params[0].fixed);
   const double eg_truth = model::SelfSteerGradient(TruthParams(), kWheelbase);
   std::printf("EG %.5f -> %.5f (truth %.5f), RMSE held-out %.4f -> %.4f\n", base_fit.eg_rad_per_mps2, fit.eg_rad_per_mps2,
               eg_truth, base_fit.rmse_validation_mps2, fit.rmse_validation_mps2);

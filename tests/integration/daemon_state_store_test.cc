@@ -86,7 +86,7 @@ class StateTest : public ::testing::Test {
     e.fit.noise_level_yaw_rate = 3.5e-6;
     e.fit.identifiability.weak.push_back({1e-4, "+0.71 m +0.71 Jz"});
     e.fit.identifiability.notes.push_back("m fixed from configuration");
-    e.fit.drive_loads.push_back({4, 1.07, 0.01, false, true});
+    e.fit.drive_values.push_back({4, "load_ratio", 1.07, 0.01, false, true});
     e.fit.effect_params.push_back({"steer_offset", "rad", 0.0021, 1e-4, false, false});
     e.fit.correlation.assign(49, 0.25);
     e.plausibility.checks.push_back({"kinematics", adequacy::Verdict::kPassed, 1.01, 3600, "a_y = v r within 2 %"});

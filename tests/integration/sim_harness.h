@@ -29,6 +29,7 @@ struct SimulatedRun {
   pipeline::WindowSnapshot window;
   double eg_truth = 0;                // rad/(m/s^2)
   std::vector<double> truth_base;     // m, Jz, cv, ch, lv, is
+  std::vector<double> drive_gyro_offset_degps;  // each drive's gyro offset (index = drive id)
   std::vector<pipeline::Estimate> history; // periodic estimates (ReplayOptions::identify_periodically)
 };
 
@@ -65,6 +66,7 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   const std::string log = TempDir(name) + "/drive.log";
   {
     const sim::SimulationResult result = sim::Simulate(run.sim);
+    for (const auto& d : result.drives) run.drive_gyro_offset_degps.push_back(d.gyro_offset_degps);
     sim::WriteCandumpLog(result, *run.db, log);
   }
   const auto& v = run.sim.vehicle;

@@ -28,6 +28,7 @@ struct SimEffects {
   double speed_offset_kph = 0.0;         // vehicle speed signal only: v_meas = (1 + eps) * v + c while moving
   double speed_delay_ms = 0.0;           // vehicle speed signal latency: v_meas(t) from v(t - tau)
   double gyro_offset_degps = 0.0;        // yaw-rate sensor: r_meas = (1 + k_r) r + r0, r0 here
+  double gyro_offset_drive_degps = 0.0;  // per drive: r0_i = r0 + U(-d, +d) (re-zeroed at every ignition)
   double gyro_scale_pct = 0.0;           // k_r * 100
   double accel_scale_pct = 0.0;          // accelerometer: a_y,meas = (1 + k_a) a_y + ..., k_a * 100
   double gyro_delay_ms = 0.0;            // yaw-rate sensor latency: r_meas(t) = r(t - tau)

@@ -18,7 +18,7 @@ struct Chunk {
   double dt_s;
   int64_t drive_id;
   std::shared_ptr<const std::vector<float>> bank;  // per sample of the chunk (empty: no yaw rate)
-  double load_ratio = 1.0;                         // the drive's load ratio (load_change)
+  std::vector<std::pair<int, double>> drive_params;  // the drive's per-drive values (DriveOverrides)
 
   // A finite measured yaw rate on every sample (the bank is estimated only then); without one
   // the chunk has a_y as its only output and road_bank is inert on it.
@@ -27,12 +27,20 @@ struct Chunk {
   model::InputSeries Inputs() const {
     constexpr size_t kStride = sizeof(stats::SegmentSample) / sizeof(float);
     model::InputSeries in{&samples[0].steer_rad, &samples[0].speed_mps, kStride, n, dt_s};
-    in.load_ratio = load_ratio;
     if (bank && !bank->empty()) {
       in.bank_mps2 = bank->data();
       in.yaw_rate_radps = &samples[0].yaw_rate_radps;  // the bank is estimated only with a yaw rate
     }
     return in;
+  }
+  // The full parameter vector as this chunk's drive sees it: the per-drive entries replaced.
+  template <typename T>
+  void ApplyDriveParams(T* params) const {
+    for (const auto& [i, v] : drive_params) params[i] = T(v);
+  }
+  std::vector<double> ParamsFor(std::vector<double> params) const {
+    ApplyDriveParams(params.data());
+    return params;
   }
 };
 
@@ -44,9 +52,9 @@ std::vector<float> EstimateBank(const stats::Segment& segment, double tau_s = 1.
 
 // Long segments are cut into chunks of about chunk_s (the last piece joins its predecessor
 // when shorter than half a chunk); chunks with no residual after the burn-in are dropped.
-// `loads`: load ratio per drive id (load_change); drives not listed get 1.
+// `drive_values`: the per-drive parameter values of each drive (none: the vector's values).
 std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, double burn_in_s,
-                              const std::map<int64_t, double>& loads = {});
+                              const DriveOverrides& drive_values = {});
 size_t BurnInSamples(const Chunk& c, double burn_in_s);
 
 // Autocorrelation sums sum_k e_k e_(k-lag), lags 0..kAcfMaxLag, of one series, added into acf
@@ -70,7 +78,8 @@ double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_c
 std::vector<double> Extend(const model::ModelSpec& from, const std::vector<double>& values, const model::ModelSpec& to);
 
 // Residuals e (k >= burn) of one chunk of `spec` at the full parameter vector `params`, and
-// their Jacobian d(a_y,meas - a_y,model)/d(params), row-major (residuals x spec.num_params()),
+// their Jacobian d(a_y,meas - a_y,model)/d(params) (the chunk's per-drive values replace their
+// entries of `params`, whose columns are then 0), row-major (residuals x spec.num_params()),
 // by automatic differentiation. The discovery stage's score tests are built on it. With
 // with_yaw_rate and a chunk that has a yaw rate, the yaw-rate residuals r_meas - r_model
 // (unweighted) follow the a_y ones.

@@ -49,14 +49,22 @@ struct IdentifiabilityReport {
   std::vector<std::string> notes;   // e.g. "m fixed from configuration: only cv/m, ch/m, Jz/m determined"
 };
 
-// A drive's load ratio (load_change): its m and Jz relative to the reference drive's.
-struct DriveLoad {
+// One per-drive parameter's value on one drive (model::EffectParam::per_drive, e.g.
+// load_change's load_ratio), estimated by Identify with the shared parameters held.
+struct DriveValue {
   int64_t drive_id = 0;
-  double ratio = 1;
-  double se = 0;           // conditional on the shared parameters (0 for the reference)
-  bool reference = false;  // the drive whose load the parameters (and EG) describe
-  bool validation = false; // a held-out drive (its ratio fitted with the parameters held)
+  std::string param;       // the parameter's name (ModelSpec::param_name)
+  double value = 0;
+  double se = 0;           // conditional on the shared parameters (0 for a pinned reference)
+  bool reference = false;  // the drive the parameter vector (and EG) describes
+  bool validation = false; // a held-out drive (its values fitted with the shared parameters held)
 };
+
+// Per-drive values by drive id as (index in the full parameter vector, value): what a chunk of
+// that drive puts in place of the vector's entries. The reference drive is not listed.
+using DriveOverrides = std::map<int64_t, std::vector<std::pair<int, double>>>;
+// The values laid out for `spec` (by parameter name; parameters it lacks are dropped).
+DriveOverrides OverridesFor(const std::vector<DriveValue>& values, const model::ModelSpec& spec);
 
 struct IdentificationResult {
   bool valid = false;
@@ -89,7 +97,8 @@ struct IdentificationResult {
   std::string termination;
   std::string se_method;  // "cluster-robust (N chunks)" or "autocorrelation-corrected"
   IdentifiabilityReport identifiability;
-  std::vector<DriveLoad> drive_loads;  // load_change only: training drives, then held-out ones
+  // Per-drive parameters only: every such parameter on the training drives, then the held-out ones.
+  std::vector<DriveValue> drive_values;
   // How the fit was computed (docs/incremental.md): "full window", or "incremental" with the
   // chunks simulated (new data and relinearised ones) and those taken from the prior.
   std::string update = "full window";
@@ -102,6 +111,12 @@ struct IdentificationResult {
 
   model::Params<double> AsParams() const;
   std::vector<double> AllValues() const;  // base then effect parameters (ModelSpec layout)
+  // The values laid out for `spec`: the base six, effect parameters by name, a parameter this
+  // result lacks at its neutral value (a fit restored from another model or an older version).
+  std::vector<double> ValuesFor(const model::ModelSpec& spec) const;
+  // The number of estimated quantities: the free parameters and every training drive's own
+  // per-drive values (the reference drive's are the vector's).
+  size_t NumEstimated() const;
 };
 
 // Incremental re-identification (docs/incremental.md): fit only the data the prior does not
@@ -125,7 +140,8 @@ class Identifier {
                                 const std::optional<std::vector<double>>& warm_start = std::nullopt) const;
   IdentificationResult Identify(const SegmentList& training, const SegmentList& validation,
                                 const std::optional<model::Params<double>>& warm_start) const;
-  // The same, incrementally on top of update.prior (a load_change model is always fitted whole).
+  // The same, incrementally on top of update.prior (a model with per-drive parameters is always
+  // fitted whole).
   IdentificationResult Identify(const SegmentList& training, const SegmentList& validation,
                                 const std::optional<std::vector<double>>& warm_start,
                                 const IncrementalUpdate& update) const;
@@ -149,11 +165,12 @@ class Identifier {
   const config::IdentificationConfig& config() const { return config_; }
   double wheelbase_m() const { return wheelbase_m_; }
 
-  // Per-drive load ratios (load_change) used when simulating: Rmse, SimulateChunks, Diagnose.
-  // Identify estimates them for a load_change model (starting from the ones set here); set them
-  // from its result before simulating.
-  void set_drive_loads(const std::vector<DriveLoad>& loads);
-  const std::map<int64_t, double>& drive_loads() const { return drive_loads_; }
+  // Per-drive parameter values used when simulating (Rmse, SimulateChunks, Diagnose). Identify
+  // estimates them for a model with per-drive parameters (starting from the ones set here); set
+  // them from its result before simulating. Values of parameters the model lacks are ignored.
+  void set_drive_values(const std::vector<DriveValue>& values);
+  const DriveOverrides& drive_overrides() const { return drive_overrides_; }
+  const std::vector<DriveValue>& drive_values() const { return drive_values_; }
 
   // Standstill evidence (docs/two-outputs.md): the window's standstills. Identify turns those of
   // its training drives into a Gaussian prior on gyro_offset (the stops' mean yaw rate) and on
@@ -180,16 +197,22 @@ class Identifier {
                                                        const std::set<int64_t>& drives);
 
  private:
-  IdentificationResult IdentifyAtLoads(const SegmentList& training, const SegmentList& validation,
-                                       const std::optional<std::vector<double>>& warm_start,
-                                       const IncrementalUpdate* update = nullptr) const;
-  IdentificationResult IdentifyWithDriveLoads(const SegmentList& training, const SegmentList& validation,
-                                              const std::optional<std::vector<double>>& warm_start) const;
-  // The load ratio of one drive minimising its RSS with the parameters held (Gauss-Newton on a
-  // finite-difference sensitivity); se from the curvature and the noise level.
-  DriveLoad FitDriveLoad(const std::vector<double>& params, const SegmentList& drive_segments, int64_t drive,
-                         double start) const;
-  std::map<int64_t, double> drive_loads_;
+  // The shared parameters with every drive's per-drive values held (drive_overrides_).
+  IdentificationResult IdentifyAtDriveValues(const SegmentList& training, const SegmentList& validation,
+                                             const std::optional<std::vector<double>>& warm_start,
+                                             const IncrementalUpdate* update = nullptr) const;
+  // A model with per-drive parameters: the shared fit and the per-drive fits in turn.
+  IdentificationResult IdentifyPerDrive(const SegmentList& training, const SegmentList& validation,
+                                        const std::optional<std::vector<double>>& warm_start) const;
+  // The per-drive parameters `which` (full-vector indices) of one drive minimising its weighted
+  // RSS with the other parameters held at `params` (Gauss-Newton on finite-difference
+  // sensitivities, inside the parameters' boxes); se from the curvature and the noise level.
+  // `weights`: the fit's output weights (a_y, yaw rate; 0: a_y alone).
+  std::vector<DriveValue> FitDriveValues(const std::vector<double>& params, const SegmentList& drive_segments,
+                                         int64_t drive, const std::vector<int>& which, std::vector<double> start,
+                                         const std::pair<double, double>& weights) const;
+  std::vector<DriveValue> drive_values_;
+  DriveOverrides drive_overrides_;  // drive_values_ laid out for spec_
   std::vector<gate::StandstillStop> standstill_;
   config::IdentificationConfig config_;
   double wheelbase_m_;

@@ -2,7 +2,8 @@
 // learned state, replay's estimate.json, compare's summary.json, diagnose's diagnosis.json).
 // EG with sigma in both units, every parameter (base then effects) as {name, value, se, unit,
 // fixed, at_bound}, the outputs fitted and their RMSEs and noise levels, correlations,
-// identifiability, and the per-drive loads of load_change (docs/state-format.md).
+// identifiability, and the per-drive parameters' values per drive (docs/state-format.md; the
+// "drive_loads" of older documents read as load_ratio values).
 #pragma once
 
 #include "ndsid/common/json_codec.h"

@@ -33,6 +33,21 @@ struct EffectParam {
   double initial = 0;    // start of the fit
   double neutral = 0;    // value at which the effect vanishes (the base model)
   double typical = 0;    // a realistic magnitude, for probes and documentation
+  // A per-drive parameter (physics.md §4 "per drive": a load, a sensor re-zeroed at every
+  // ignition): each drive has its own value. The parameter vector's slot holds the reference
+  // drive's value (the first training drive); the identifier estimates the others per drive
+  // and carries them as identify::DriveValue (Identifier::Identify).
+  bool per_drive = false;
+  // The common mode of a per-drive parameter, when one exists: a factor c on every drive's
+  // value is exactly the base parameters listed here scaled by c^power (a load ratio: cv and ch
+  // by 1/c). Such a parameter is not determined on the reference drive: its slot stays at the
+  // neutral value, and the identifier moves the common mode into these parameters.
+  struct Power {
+    int base_param;  // index into the base six (single_track.h)
+    double power;
+  };
+  std::vector<Power> common_mode;
+  bool pinned_at_reference() const { return per_drive && !common_mode.empty(); }
 };
 
 struct EffectInfo {
@@ -69,9 +84,6 @@ struct InputSeries {
   // Measured yaw rate [rad/s], element k at yaw_rate_radps[k * stride] (nullptr when the bus
   // has none). Used by the road_bank effect's observer.
   const float* yaw_rate_radps = nullptr;
-  // Load ratio of the drive (load_change): m and Jz scaled by it, i.e. the tyre forces by its
-  // inverse. 1 = the reference load.
-  double load_ratio = 1.0;
   double steer(size_t k) const { return steer_rad[k * stride]; }
   double yaw_rate(size_t k) const { return yaw_rate_radps ? yaw_rate_radps[k * stride] : 0.0; }
   double speed(size_t k) const { return speed_mps[k * stride]; }

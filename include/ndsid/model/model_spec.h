@@ -35,18 +35,16 @@ class ModelSpec {
   std::string param_name(int i) const;
   std::string param_unit(int i) const;
   const EffectParam* effect_param(int i) const;  // nullptr for base parameters
+  int param_index(const std::string& name) const;  // -1 when the model has no such parameter
   std::string Describe() const;  // "single-track + steer_offset + roll"
 
-  // "load_change" (physics.md §4, mass / load change): one load ratio per drive, m and Jz of
-  // drive d scaled by rho_d (equivalently its tyre forces by 1/rho_d), relative to a reference
-  // drive. Per-drive values are not part of the fixed parameter vector: the identifier
-  // estimates them (Identifier::Identify) and carries them in the result.
-  static constexpr const char* kLoadChange = "load_change";
-  bool per_drive_load() const { return per_drive_load_; }
+  // Indices (in the full vector) of the per-drive parameters (EffectParam::per_drive): each
+  // drive has its own value; the vector holds the reference drive's (identify::DriveValue).
+  const std::vector<int>& per_drive_params() const { return per_drive_params_; }
 
  private:
   EffectLibrary library_;
-  bool per_drive_load_ = false;
+  std::vector<int> per_drive_params_;
   std::vector<std::shared_ptr<const Effect>> effects_;
   std::vector<int> param_offsets_, state_offsets_;
   int num_effect_params_ = 0;

@@ -63,10 +63,6 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
     const AxleSlip<T> slip = SlipAngles(p, l, x, u.steer_rad, u.speed_mps);
     ForceTerms<T> f{p.cv * slip.front, p.ch * slip.rear, T(0.0), T(0.0)};
     for (size_t e = 0; e < ne; ++e) effects[e]->Forces(eta(e), p, l, slip, x, u, st(e), f);
-    if (in.load_ratio != 1.0) {  // m and Jz scaled by the load ratio = the tyre forces by its inverse
-      f.force_front_n /= in.load_ratio;
-      f.force_rear_n /= in.load_ratio;
-    }
     Derivative<T> d = DerivativeFromForces(p, l, x, u.speed_mps, f.force_front_n, f.force_rear_n);
     d.beta_dot += f.gravity_lat_mps2 / u.speed_mps;
     d.r_dot += f.yaw_accel_radps2;

@@ -73,6 +73,7 @@ struct DriveResult {
   int driver = 0;
   model::Params<double> params{};    // true parameters of this drive (mass change applies)
   double self_steer_gradient = 0.0;  // EG [rad/(m/s^2)] of this drive
+  double gyro_offset_degps = 0.0;    // the yaw-rate sensor's offset on this drive (r0 + per-drive part)
   double ambient_temp_c = 15.0;
   double odometer_start_km = 0.0;
   DriveSeries series;

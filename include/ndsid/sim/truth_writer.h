@@ -22,6 +22,7 @@ class TruthSummary {
     model::Params<double> params;
     double self_steer_gradient;
     DriveStats stats;
+    double gyro_offset_degps = 0;
   };
   void Add(const DriveResult& drive);
   const std::vector<Drive>& drives() const { return drives_; }

@@ -53,6 +53,7 @@ std::string Separation(const std::string& effect) {
       {"relaxation", "~ steering rate at low speed (lag sigma/v): the speed dependence separates it from a time skew"},
       {"tyre_saturation", "only data with |a_y| > 3 m/s^2 separate it from EG"},
       {"load_change", "per drive: within one drive a load is EG (and cv/m, ch/m) itself; only the drives' differences show it"},
+      {"gyro_offset_per_drive", "per drive: a constant yaw-rate residual that differs between drives; each drive's standstills measure its own offset"},
   };
   const auto it = kHints.find(effect);
   return it != kHints.end() ? it->second : "";
@@ -73,15 +74,15 @@ std::string Fmt(const char* fmt, double a, double b = 0, double c = 0) {
 // The added effect's parameters of a rung as "name = v ± se unit".
 std::string AddedParams(const discover::Rung& r, const model::EffectLibrary& library) {
   if (r.added.empty()) return "";
-  if (r.added == model::ModelSpec::kLoadChange) {  // per-drive ratios, not in the parameter vector
+  const model::ModelSpec spec = model::ModelSpec::FromNames({r.added}, library);
+  if (!spec.per_drive_params().empty()) {  // per-drive values: one per drive, the reference's the vector's
     std::string s;
-    for (const auto& l : r.fit.drive_loads) {
-      s += (s.empty() ? "load ratio: drive " : "; drive ") + std::to_string(l.drive_id) +
-           (l.reference ? " 1 (reference)" : Fmt(" %.3f ± %.3f", l.ratio, l.se)) + (l.validation ? " (held out)" : "");
+    for (const auto& v : r.fit.drive_values) {
+      s += (s.empty() ? v.param + ": drive " : "; drive ") + std::to_string(v.drive_id) +
+           Fmt(" %.4g", v.value) + (v.reference ? " (reference)" : Fmt(" ± %.2g", v.se)) + (v.validation ? " (held out)" : "");
     }
     return s;
   }
-  const model::ModelSpec spec = model::ModelSpec::FromNames({r.added}, library);
   std::string s;
   for (int i = model::kNumParams; i < spec.num_params(); ++i) {
     for (const auto& p : r.fit.effect_params) {

@@ -23,11 +23,13 @@ const std::vector<std::pair<std::string, Factory>>& Table() {
       {"superelevation", MakeSuperelevation},
       {"relaxation", MakeRelaxation},
       {"tyre_saturation", MakeTyreSaturation},
+      {"load_change", MakeLoadChange},         // per drive: the tyre forces / rho, after the tyre model
       {"accel_bias", MakeAccelBias},           // measurement
       {"accel_scale", MakeAccelScale},
       {"lever_arm", MakeLeverArm},
       {"roll", MakeRoll},
       {"gyro_offset", MakeGyroOffset},         // yaw-rate measurement (offset before scale)
+      {"gyro_offset_per_drive", MakeGyroOffsetPerDrive},  // the same, one offset per drive
       {"gyro_scale", MakeGyroScale},
       {"gyro_delay", MakeGyroDelay},
   };

@@ -9,13 +9,20 @@
 namespace ndsid::model {
 namespace {
 
+// per_drive: gyro_offset_per_drive, the same term with one offset per drive (re-zeroed at every
+// ignition, moving with temperature): the parameter vector holds the reference drive's offset,
+// the identifier fits every other drive's (EffectParam::per_drive). Its parameter has the same
+// name, so a model holds one of the two, and a fit of one warm-starts the other.
 class GyroOffset final : public EffectImpl<GyroOffset> {
  public:
-  GyroOffset()
-      : EffectImpl({.name = "gyro_offset",
-                    .description = "r_meas = r + r0 (yaw-rate sensor offset)",
-                    .signature = "constant in the yaw-rate residual; v r0 in a_y - v r_meas; mean r at standstill",
-                    .params = {{.name = "gyro_offset_radps", .unit = "rad/s", .lower = -0.03, .upper = 0.03, .initial = 0.0, .neutral = 0.0, .typical = 0.007}},
+  explicit GyroOffset(bool per_drive)
+      : EffectImpl({.name = per_drive ? "gyro_offset_per_drive" : "gyro_offset",
+                    .description = per_drive ? "r_meas = r + r0_d (yaw-rate sensor offset, one per drive)"
+                                             : "r_meas = r + r0 (yaw-rate sensor offset)",
+                    .signature = per_drive ? "a constant in the yaw-rate residual that differs between drives"
+                                           : "constant in the yaw-rate residual; v r0 in a_y - v r_meas; mean r at standstill",
+                    .params = {{.name = "gyro_offset_radps", .unit = "rad/s", .lower = -0.03, .upper = 0.03, .initial = 0.0,
+                                .neutral = 0.0, .typical = 0.007, .per_drive = per_drive}},
                     .num_states = 0,
                     .yaw_rate_sensor = true}) {}
   template <class T>
@@ -32,6 +39,7 @@ class GyroOffset final : public EffectImpl<GyroOffset> {
 
 }  // namespace
 
-std::shared_ptr<const Effect> MakeGyroOffset() { return std::make_shared<GyroOffset>(); }
+std::shared_ptr<const Effect> MakeGyroOffset() { return std::make_shared<GyroOffset>(false); }
+std::shared_ptr<const Effect> MakeGyroOffsetPerDrive() { return std::make_shared<GyroOffset>(true); }
 
 }  // namespace ndsid::model
