@@ -76,7 +76,18 @@ std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in
     y << ", timeout_s: " << Number(p.timeout_s) << "}\n";
   }
   y << "\ngate:\n"
-    << "  min_drive_km: 2.0           # drives shorter than this are not used (the study's rule) [km]\n"
+    << "  min_drive_km: 2.0           # drives shorter than this are not used (the study's rule) [km]\n";
+  // With a yaw rate on the bus: both outputs fitted, the road's bank tracked through the yaw
+  // rate, and the gyro's offset (every real gyro has one; the stops measure it) in the model.
+  const RoleProposal* yaw = result.Find(config::Role::kYawRate);
+  if (yaw && yaw->found) {
+    y << "\nmodel:\n"
+      << "  effects: [road_bank, gyro_offset]  # the bank tracked through the yaw rate; the gyro's offset\n"
+      << "                                     # (docs/two-outputs.md; `ndsid diagnose` proposes more)\n"
+      << "\nidentification:\n"
+      << "  outputs: [a_y, yaw_rate]    # the yaw rate fitted as a second output (docs/two-outputs.md)\n";
+  }
+  y
     << "\n# identification: the parameter box is left at its defaults (docs/configuration.md); set\n"
     << "# vehicle.wheelbase_m and vehicle.mass_kg above from the data sheet, and narrow the box\n"
     << "# (identification.parameters) when the car is far from a C-Max-class car.\n"

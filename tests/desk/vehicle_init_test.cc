@@ -225,6 +225,25 @@ TEST_F(SimulatedBus, WrittenConfigLoadsAndListsRolesNotFound) {
     EXPECT_DOUBLE_EQ(c.role(role)->timeout_s, p->timeout_s);
   }
   EXPECT_EQ(c.role(Role::kLongitudinalAcceleration), nullptr);
+  // A yaw rate on the bus: both outputs, the bank tracked through it, the gyro's offset.
+  EXPECT_TRUE(c.identification.yaw_rate_output);
+  EXPECT_EQ(c.model_effects, (std::vector<std::string>{"road_bank", "gyro_offset"}));
+}
+
+// Without a yaw rate the written config fits a_y alone with the base model (nothing reads a
+// yaw rate it does not have).
+TEST_F(SimulatedBus, WithoutAYawRateTheConfigFitsAyAlone) {
+  const std::string dbc = std::regex_replace(example_dbc_, std::regex("YawRate"), "Signal9");
+  const fs::path dbc_path = dir_ / "no_yaw.dbc";
+  std::ofstream(dbc_path) << dbc;
+  const InitResult r = Propose(dbc, log_);
+  ASSERT_TRUE(r.MandatoryFound());
+  ASSERT_FALSE(r.Find(Role::kYawRate)->found);
+  const fs::path out = dir_ / "no_yaw.yaml";
+  std::ofstream(out) << VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test"});
+  const config::Config c = config::LoadConfig(out.string());
+  EXPECT_FALSE(c.identification.yaw_rate_output);
+  EXPECT_TRUE(c.model_effects.empty());
 }
 
 // The RAV4's split steering angle, made from the example bus: the same 16 bits decoded as a
