@@ -56,7 +56,7 @@ constexpr int kNumSignatures = sizeof(kSignatures) / sizeof(kSignatures[0]);
 struct PerDriveScore {
   int col = -1;                          // the candidate's column in the big model
   bool pinned = false;                   // its common mode is in the base parameters (a load)
-  std::string effect, param;
+  std::string effect, param, unit;
   std::map<int64_t, int> index;          // drive id -> column
   std::vector<Eigen::VectorXd> a_g;      // per drive: A' g_d (all columns of big)
   std::vector<double> g_g, g_e;          // per drive: g_d' g_d, g_d' e
@@ -104,7 +104,7 @@ struct PerDriveScore {
     CandidateScore s;
     s.effect = effect;
     s.param = param + " spread (sd over drives)";
-    s.unit = "-";
+    s.unit = unit;
     s.drss = std::max(0.0, q.dot(eta));
     s.rmse_predicted = std::sqrt(std::max(0.0, rss - s.drss) / static_cast<double>(n));
     const double mean = eta.mean();
@@ -211,6 +211,7 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
       PerDriveScore pds;
       pds.col = col;
       pds.param = big.param_name(col);
+      pds.unit = big.param_unit(col);
       for (const auto& eff : big.effects())
         for (const auto& p : eff->info().params)
           if (p.name == pds.param) pds.effect = eff->info().name;
@@ -222,6 +223,7 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
       PerDriveScore pds;
       pds.col = big.param_index(param);
       pds.param = param;
+      pds.unit = big.param_unit(pds.col);
       pds.effect = effect;
       per_drive_scores.push_back(std::move(pds));
     }
@@ -649,18 +651,42 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
       IdentificationResult fit;
     };
     std::vector<EgRelevant> eg_relevant;
+    // Alternatives: a global form (gyro_offset) whose per-drive form's spread between drives is
+    // significant is followed at once by that per-drive form. The global one is tried first: its
+    // refit is judged on held-out drives, and when the quantity differs between drives a value
+    // for all makes those drives worse; then the per-drive form, which fits theirs. (Ranked by
+    // its spread alone, the per-drive form can come too late: its spread is only clean once the
+    // common value is fitted.)
+    auto shares_param = [&](const std::string& a, const std::string& b) {
+      bool shares = false;
+      for (const auto& p : library.Get(a)->info().params)
+        for (const auto& q : library.Get(b)->info().params) shares |= p.name == q.name;
+      return shares;
+    };
+    auto per_drive_form = [&](const std::string& e) {
+      for (const auto& p : library.Get(e)->info().params)
+        if (p.per_drive) return true;
+      return false;
+    };
+    std::vector<CandidateScore> order;
     for (const CandidateScore& c : diag.ranked) {
+      if (std::any_of(order.begin(), order.end(), [&](const CandidateScore& o) { return o.effect == c.effect; })) continue;
+      order.push_back(c);
+      if (!c.significant || per_drive_form(c.effect)) continue;
+      for (const CandidateScore& a : diag.ranked) {
+        if (a.significant && per_drive_form(a.effect) && shares_param(a.effect, c.effect) &&
+            std::none_of(order.begin(), order.end(), [&](const CandidateScore& o) { return o.effect == a.effect; }))
+          order.push_back(a);
+      }
+    }
+    for (const CandidateScore& c : order) {
       const bool large = c.rmse_predicted < (1.0 - options.large_effect_rmse_drop) * diag.rmse;
       if ((!c.significant && !large) || tried >= 3) continue;
       ++tried;
       // An alternative of an effect in the model (gyro_offset_per_drive for gyro_offset) replaces it.
       std::vector<std::string> trial;
-      for (const std::string& e : effects) {
-        bool shares = false;
-        for (const auto& p : library.Get(e)->info().params)
-          for (const auto& q : library.Get(c.effect)->info().params) shares |= p.name == q.name;
-        if (!shares) trial.push_back(e);
-      }
+      for (const std::string& e : effects)
+        if (!shares_param(e, c.effect)) trial.push_back(e);
       trial.push_back(c.effect);
       const auto [next, f2] = refit(trial);
       Trial trial_record;
