@@ -46,7 +46,7 @@ struct EffectParam {
     int base_param;  // index into the base six (single_track.h)
     double power;
   };
-  std::vector<Power> common_mode;
+  std::vector<Power> common_mode{};
   bool pinned_at_reference() const { return per_drive && !common_mode.empty(); }
 };
 
