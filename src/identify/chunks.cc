@@ -80,7 +80,7 @@ std::vector<Chunk> MakeChunks(const SegmentList& segments, double chunk_s, doubl
     while (start < total) {
       size_t n = std::min(per, total - start);
       if (total - (start + n) < per / 2) n = total - start;  // fold a short tail into this chunk
-      Chunk c{seg->samples.data() + start, n, seg->dt_s, seg->drive_id, nullptr};
+      Chunk c{seg->samples.data() + start, n, seg->dt_s, seg->drive_id, nullptr, {}};
       if (const auto it = drive_values.find(seg->drive_id); it != drive_values.end()) c.drive_params = it->second;
       if (!bank->empty()) {
         c.bank = std::make_shared<const std::vector<float>>(bank->begin() + static_cast<long>(start),
