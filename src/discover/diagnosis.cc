@@ -121,6 +121,15 @@ struct PerDriveScore {
   }
 };
 
+// Whether two effects of the library share a parameter: alternatives (gyro_offset and
+// gyro_offset_per_drive), which one model never holds together.
+bool SharesParameter(const model::EffectLibrary& library, const std::string& a, const std::string& b) {
+  for (const auto& p : library.Get(a)->info().params)
+    for (const auto& q : library.Get(b)->info().params)
+      if (p.name == q.name) return true;
+  return false;
+}
+
 }  // namespace
 
 Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& params, const SegmentList& segments,
@@ -167,16 +176,11 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   std::vector<std::string> all = present;
   std::vector<std::pair<std::string, std::string>> alternatives;  // (per-drive candidate, its parameter)
   for (const std::string& c : candidates) {
-    const auto& params = spec.library().Get(c)->info().params;
-    bool clash = false;
-    for (const std::string& other : all)
-      for (const auto& q : spec.library().Get(other)->info().params)
-        for (const auto& p : params) clash |= p.name == q.name;
-    if (!clash) {
+    if (std::none_of(all.begin(), all.end(), [&](const std::string& other) { return SharesParameter(spec.library(), c, other); })) {
       all.push_back(c);
       continue;
     }
-    for (const auto& p : params)
+    for (const auto& p : spec.library().Get(c)->info().params)
       if (p.per_drive) alternatives.emplace_back(c, p.name);
   }
   const model::ModelSpec big = model::ModelSpec::FromNames(all, spec.library());
@@ -657,12 +661,7 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
     // for all makes those drives worse; then the per-drive form, which fits theirs. (Ranked by
     // its spread alone, the per-drive form can come too late: its spread is only clean once the
     // common value is fitted.)
-    auto shares_param = [&](const std::string& a, const std::string& b) {
-      bool shares = false;
-      for (const auto& p : library.Get(a)->info().params)
-        for (const auto& q : library.Get(b)->info().params) shares |= p.name == q.name;
-      return shares;
-    };
+    auto shares_param = [&](const std::string& a, const std::string& b) { return SharesParameter(library, a, b); };
     auto per_drive_form = [&](const std::string& e) {
       for (const auto& p : library.Get(e)->info().params)
         if (p.per_drive) return true;

@@ -250,6 +250,11 @@ void Identifier::set_drive_values(const std::vector<DriveValue>& values) {
 
 namespace {
 
+// Whether model.priors has a prior on the parameter `name` (it then wins over model-free evidence).
+bool HasConfiguredPrior(const config::IdentificationConfig& config, const std::string& name) {
+  return std::any_of(config.priors.begin(), config.priors.end(), [&](const config::ParameterPrior& pr) { return pr.name == name; });
+}
+
 // The scale of a per-drive parameter: its neutral magnitude or half its box, whichever is larger
 // (a load ratio: 1). Steps and tolerances of the per-drive fits are relative to it.
 double PerDriveScale(const model::EffectParam& p) {
@@ -306,8 +311,7 @@ std::vector<DriveValue> Identifier::FitDriveValues(const std::vector<double>& pa
   // as a pseudo-observation in the residuals' units: level (value - x)^2 / sd^2.
   std::vector<std::pair<size_t, StandstillPrior>> evidence;
   for (const StandstillPrior& sp : StandstillPriors({drive})) {
-    const bool configured = std::any_of(config_.priors.begin(), config_.priors.end(),
-                                        [&](const config::ParameterPrior& pr) { return pr.name == sp.param; });
+    const bool configured = HasConfiguredPrior(config_, sp.param);
     for (size_t j = 0; j < k && !configured; ++j)
       if (spec_.param_name(which[j]) == sp.param) evidence.emplace_back(j, sp);
   }
@@ -447,7 +451,7 @@ IdentificationResult Identifier::IdentifyPerDrive(const SegmentList& training, c
           v.se = 0;
           v.reference = true;
         } else {
-          change = std::max(change, std::abs(v.value - current(work, drive, i, fit.AllValues())) /
+          change = std::max(change, std::abs(v.value - current(work, drive, i, values)) /
                                         PerDriveScale(*spec_.effect_param(i)));
         }
         values_out.push_back(v);
@@ -778,8 +782,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     if (!drive_overrides_.count(d)) slot_drives.insert(d);
   const std::vector<StandstillPrior> slot_evidence = StandstillPriors(slot_drives);
   for (StandstillPrior sp : StandstillPriors(training_drives)) {
-    const bool configured = std::any_of(config_.priors.begin(), config_.priors.end(),
-                                        [&](const config::ParameterPrior& pr) { return pr.name == sp.param; });
+    const bool configured = HasConfiguredPrior(config_, sp.param);
     for (int i = model::kNumParams; i < np && !configured; ++i) {
       if (spec_.param_name(i) != sp.param || bounds[i].fixed) continue;
       if (spec_.effect_param(i)->per_drive && slot_drives.size() != training_drives.size()) {
@@ -798,8 +801,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   }
   // The speed signal's scale read against a_x (stats/speed_scale.h): a prior on speed_scale,
   // which a_y and r cannot tell from an accelerometer scale. A configured prior wins.
-  const bool speed_configured = std::any_of(config_.priors.begin(), config_.priors.end(),
-                                            [](const config::ParameterPrior& pr) { return pr.name == "speed_scale"; });
+  const bool speed_configured = HasConfiguredPrior(config_, "speed_scale");
   for (int i = model::kNumParams; i < np && !speed_configured; ++i) {
     if (spec_.param_name(i) != "speed_scale" || bounds[i].fixed) continue;
     const stats::SpeedScaleEvidence ev = stats::EstimateSpeedScale(training);
