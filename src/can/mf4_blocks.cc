@@ -164,7 +164,9 @@ bool Mf4DataStream::Refill() noexcept {
         if (uncompress(out.data(), &out_len, in.data(), static_cast<uLong>(packed)) != Z_OK || out_len != original) {
           return Fail("DZ block does not decompress (corrupt deflate data)");
         }
-        if (zip_type == 1 && columns > 0) {  // transposition: rows x columns stored column by column
+        // Transposition: rows x columns stored column by column. Fewer bytes than columns make
+        // no row: those are kept as stored, without a loop over up to 2^32 empty columns.
+        if (zip_type == 1 && columns > 0 && columns <= original) {
           const uint64_t rows = original / columns;
           std::vector<uint8_t> t(out.size());
           for (uint64_t c = 0; c < columns; ++c) {
@@ -172,7 +174,7 @@ bool Mf4DataStream::Refill() noexcept {
           }
           std::memcpy(t.data() + rows * columns, out.data() + rows * columns, original - rows * columns);
           out.swap(t);
-        } else if (zip_type != 0) {
+        } else if (zip_type != 0 && zip_type != 1) {
           return Fail("DZ block with an unknown zip type");
         }
         buffer_.insert(buffer_.end(), out.begin(), out.end());

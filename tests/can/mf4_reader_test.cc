@@ -129,6 +129,27 @@ TEST(Mf4Reader, AListThatLinksBackIsRefusedNotReadAgain) {
   EXPECT_THROW(OpenFrameLog(found), Error);
 }
 
+// Found by the mf4 fuzz target (slow units, tests/fuzz/regressions/mf4/slow-dz-columns-beyond-data):
+// a transposed DZ block declaring more columns than it has bytes (2^32 - 1 for 84) has no row to
+// transpose, but the reader looped over every empty column: seconds per 70-byte input under
+// ASan. Such a block is now kept as stored, which for one row is what the transposition gives:
+// the file reads frame for frame like the original, whose two small blocks have exactly one row.
+TEST(Mf4Reader, TransposedBlockWithMoreColumnsThanBytesReadsAsStored) {
+  const std::string found = std::string(NDSID_SOURCE_DIR) + "/tests/fuzz/regressions/mf4/slow-dz-columns-beyond-data";
+  auto original = OpenFrameLog(kCorpus + "asammdf_dz.mf4");
+  auto changed = OpenFrameLog(found);
+  const auto want = ReadAll(*original);
+  const auto got = ReadAll(*changed);
+  EXPECT_TRUE(changed->io_error().empty()) << changed->io_error();
+  ASSERT_EQ(got.size(), want.size());
+  for (size_t i = 0; i < want.size(); ++i) {
+    EXPECT_EQ(got[i].id, want[i].id) << i;
+    EXPECT_EQ(got[i].timestamp_ns, want[i].timestamp_ns) << i;
+    ASSERT_EQ(got[i].len, want[i].len) << i;
+    EXPECT_EQ(0, std::memcmp(got[i].data.data(), want[i].data.data(), want[i].len)) << i;
+  }
+}
+
 TEST(Mf4Reader, FileWithoutBusLoggingSaysSo) {
   TempDir dir;
   // ID block + an HD block without data groups: an MF4 file, but not bus logging.
