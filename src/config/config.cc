@@ -327,6 +327,9 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
       } else {
         id.Fail("outputs", "must be [a_y] or [a_y, yaw_rate] (a_y is always fitted)");
       }
+    } else {
+      // Not stated: both outputs when the bus has a yaw rate (docs/two-outputs.md), else a_y.
+      ic.yaw_rate_output = c.role(Role::kYawRate) != nullptr;
     }
     id.Finish();
   }

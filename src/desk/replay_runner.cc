@@ -201,6 +201,19 @@ std::string WriteReport(const std::string& dir, const config::Config& config, co
                     model::kParamUnits[i], p.fixed ? "fixed" : (p.at_bound ? "on bound" : ""));
       md += buf;
     }
+    for (const auto& p : e.fit.effect_params) {
+      std::snprintf(buf, sizeof buf, "| %s | %.5g | %.3g | %s | %s |\n", p.name.c_str(), p.value, p.se, p.unit.c_str(),
+                    p.fixed ? "effect, fixed" : (p.at_bound ? "effect, on bound" : "effect"));
+      md += buf;
+    }
+    if (e.fit.yaw_rate_output) {
+      char yaw_validation[48] = "n/a";
+      if (e.fit.rmse_validation_yaw_radps >= 0)
+        std::snprintf(yaw_validation, sizeof yaw_validation, "%.4f deg/s", e.fit.rmse_validation_yaw_radps * 180 / M_PI);
+      std::snprintf(buf, sizeof buf, "\nOutputs: a_y and yaw rate. Yaw rate RMSE train %.4f deg/s, validation %s.\n",
+                    e.fit.rmse_train_yaw_radps * 180 / M_PI, yaw_validation);
+      md += buf;
+    }
     md += "\nIdentifiability:\n";
     for (const auto& n : e.fit.identifiability.notes) md += "- " + n + "\n";
     for (const auto& w : e.fit.identifiability.weak) md += "- " + w.description + "\n";
@@ -261,6 +274,15 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
     if (e.fit.rmse_validation_mps2 >= 0) std::snprintf(validation, sizeof validation, "%.4f m/s^2", e.fit.rmse_validation_mps2);
     std::snprintf(steady, sizeof steady, "%.4f deg/g", model::EgToDegPerG(e.steady_state.eg_rad_per_mps2));
     std::printf("  RMSE train %.4f m/s^2, validation %s\n", e.fit.rmse_train_mps2, validation);
+    if (e.fit.yaw_rate_output) {
+      char yaw_validation[48] = "n/a (no held-out drive)";
+      if (e.fit.rmse_validation_yaw_radps >= 0)
+        std::snprintf(yaw_validation, sizeof yaw_validation, "%.4f deg/s", e.fit.rmse_validation_yaw_radps * 180 / M_PI);
+      std::printf("  yaw rate (fitted too): RMSE train %.4f deg/s, validation %s\n", e.fit.rmse_train_yaw_radps * 180 / M_PI,
+                  yaw_validation);
+    }
+    for (const auto& p : e.fit.effect_params)
+      std::printf("  %s = %.5g ± %.2g %s%s\n", p.name.c_str(), p.value, p.se, p.unit.c_str(), p.fixed ? " (fixed)" : "");
     std::printf("  steady-state check: EG = %s\n", e.steady_state.valid ? steady : e.steady_state.reason.c_str());
     std::printf("  adequacy: %s — %s\n", adequacy::StateName(e.adequacy.state), e.adequacy.explanation.c_str());
   } else if (outcome.final_estimate && std::isfinite(outcome.final_estimate->fit.eg_deg_per_g) &&

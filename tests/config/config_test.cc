@@ -97,9 +97,15 @@ TEST(Config, RejectsBrokenYamlWithLocation) {
 }
 
 // Catches: an identification.outputs value read wrongly, or a bad one accepted or reported
-// without its place (the default stays a_y alone).
+// without its place (the default: both outputs when the bus has a yaw rate, else a_y alone).
 TEST(Config, IdentificationOutputsAcceptsAyOrAyAndYawRateWithLocatedErrors) {
-  EXPECT_FALSE(ParseConfig(kMinimal, "car.yaml").identification.yaw_rate_output);
+  EXPECT_FALSE(ParseConfig(kMinimal, "car.yaml").identification.yaw_rate_output) << "no yaw rate role";
+  std::string with_yaw(kMinimal);
+  const std::string at = "signals:\n";
+  ASSERT_NE(with_yaw.find(at), std::string::npos);
+  with_yaw.insert(with_yaw.find(at) + at.size(), "  yaw_rate: {message: M, signal: R, unit: deg/s}\n");
+  EXPECT_TRUE(ParseConfig(with_yaw, "car.yaml").identification.yaw_rate_output) << "a yaw rate role: both by default";
+  EXPECT_FALSE(ParseConfig(with_yaw + "identification: {outputs: [a_y]}\n", "car.yaml").identification.yaw_rate_output);
   EXPECT_FALSE(ParseConfig(std::string(kMinimal) + "identification: {outputs: [a_y]}\n", "car.yaml").identification.yaw_rate_output);
   EXPECT_TRUE(ParseConfig(std::string(kMinimal) + "identification:\n  outputs: [a_y, yaw_rate]\n", "car.yaml")
                   .identification.yaw_rate_output);

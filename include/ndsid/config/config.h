@@ -121,9 +121,10 @@ struct IdentificationConfig {
   double validation_fraction = 0.2;  // share of drives held out for validation RMSE
   int max_iterations = 50;
   int threads = 2;
-  // identification.outputs: [a_y] (default) or [a_y, yaw_rate]. With the yaw rate, both outputs'
-  // residuals are fitted in one problem, each divided by its own noise level; chunks without a
-  // yaw rate signal fall back to a_y alone.
+  // identification.outputs: [a_y] or [a_y, yaw_rate]. With the yaw rate, both outputs' residuals
+  // are fitted in one problem, each divided by its own noise level; chunks without a yaw rate
+  // signal fall back to a_y alone. ParseConfig's default is [a_y, yaw_rate] when signals.yaw_rate
+  // is configured and [a_y] otherwise; this struct's (for code that builds a config) is a_y alone.
   bool yaw_rate_output = false;
   // Incremental re-identification (docs/incremental.md): each periodic update fits the new data
   // plus the quadratic prior of the data already fitted; a prior segment is simulated again when
