@@ -106,6 +106,14 @@ nlohmann::json EstimateJson(const config::Config& config, const pipeline::Estima
 
 void WriteText(const fs::path& p, const std::string& text) { WriteFileAtomically(p.string(), text); }
 
+// The held-out yaw-rate RMSE in deg/s, or `none` without held-out data (-1).
+std::string YawValidationText(double rmse_radps, const char* none) {
+  if (rmse_radps < 0) return none;
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.4f deg/s", rmse_radps * 180 / M_PI);
+  return buf;
+}
+
 }  // namespace
 
 std::string WriteReport(const std::string& dir, const config::Config& config, const pipeline::Pipeline& pipeline,
@@ -207,11 +215,8 @@ std::string WriteReport(const std::string& dir, const config::Config& config, co
       md += buf;
     }
     if (e.fit.yaw_rate_output) {
-      char yaw_validation[48] = "n/a";
-      if (e.fit.rmse_validation_yaw_radps >= 0)
-        std::snprintf(yaw_validation, sizeof yaw_validation, "%.4f deg/s", e.fit.rmse_validation_yaw_radps * 180 / M_PI);
       std::snprintf(buf, sizeof buf, "\nOutputs: a_y and yaw rate. Yaw rate RMSE train %.4f deg/s, validation %s.\n",
-                    e.fit.rmse_train_yaw_radps * 180 / M_PI, yaw_validation);
+                    e.fit.rmse_train_yaw_radps * 180 / M_PI, YawValidationText(e.fit.rmse_validation_yaw_radps, "n/a").c_str());
       md += buf;
     }
     md += "\nIdentifiability:\n";
@@ -275,11 +280,8 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
     std::snprintf(steady, sizeof steady, "%.4f deg/g", model::EgToDegPerG(e.steady_state.eg_rad_per_mps2));
     std::printf("  RMSE train %.4f m/s^2, validation %s\n", e.fit.rmse_train_mps2, validation);
     if (e.fit.yaw_rate_output) {
-      char yaw_validation[48] = "n/a (no held-out drive)";
-      if (e.fit.rmse_validation_yaw_radps >= 0)
-        std::snprintf(yaw_validation, sizeof yaw_validation, "%.4f deg/s", e.fit.rmse_validation_yaw_radps * 180 / M_PI);
       std::printf("  yaw rate (fitted too): RMSE train %.4f deg/s, validation %s\n", e.fit.rmse_train_yaw_radps * 180 / M_PI,
-                  yaw_validation);
+                  YawValidationText(e.fit.rmse_validation_yaw_radps, "n/a (no held-out drive)").c_str());
     }
     for (const auto& p : e.fit.effect_params)
       std::printf("  %s = %.5g ± %.2g %s%s\n", p.name.c_str(), p.value, p.se, p.unit.c_str(), p.fixed ? " (fixed)" : "");

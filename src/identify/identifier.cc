@@ -681,24 +681,23 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // alone hold no yaw-rate residuals even where the data have a yaw rate.
   for (const PriorSegment& ps : from_prior) chunks_with_yaw += ps.seg->has_yaw_rate ? ps.lin->chunks.size() : 0;
   const bool two_outputs = config_.yaw_rate_output && chunks_with_yaw > 0;
-  if (prior && two_outputs != (prior->weight_yaw_rate > 0)) {
+  // The update fitted as the whole window instead (no prior); `note`, when given, says why.
+  auto whole_window = [&](const char* note) {
     IncrementalUpdate whole = *update;
     whole.prior = nullptr;
-    return IdentifyAtDriveValues(training, validation, warm_start, &whole);
-  }
+    IdentificationResult w = IdentifyAtDriveValues(training, validation, warm_start, &whole);
+    if (note) w.update = note;
+    return w;
+  };
+  if (prior && two_outputs != (prior->weight_yaw_rate > 0)) return whole_window(nullptr);
   // With two outputs the prior's output weights hold for the update; they were estimated from
   // the data the prior was built on. While the new data outnumber the prior's chunks (the first
   // updates of a window), a whole-window fit costs at most twice the update and estimates the
   // weights from all the data.
   size_t prior_chunks = 0;
   for (const PriorSegment& ps : from_prior) prior_chunks += ps.lin->chunks.size();
-  if (prior && two_outputs && chunks.size() >= prior_chunks) {
-    IncrementalUpdate whole = *update;
-    whole.prior = nullptr;
-    r = IdentifyAtDriveValues(training, validation, warm_start, &whole);
-    r.update = "incremental: more chunks to simulate than the prior holds, so fitted as the whole window";
-    return r;
-  }
+  if (prior && two_outputs && chunks.size() >= prior_chunks)
+    return whole_window("incremental: more chunks to simulate than the prior holds, so fitted as the whole window");
   auto weights = std::make_shared<OutputWeights>();
   weights->yaw_rate = two_outputs ? 1.0 : 0.0;
   if (prior) *weights = {prior->weight_a_y, prior->weight_yaw_rate};
@@ -932,23 +931,20 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     if (stale.empty()) break;
     const size_t first_simulated = simulated.size(), first_chunk = chunks.size();
     relinearize(stale);
+    // Every prior segment to be simulated again: the update is a whole-window fit. With two
+    // outputs the prior's output weights would still hold, fixed when the prior was first built;
+    // the whole-window fit estimates them from the data, so fit as that one (its result exactly).
+    if (two_outputs && from_prior.empty()) {
+      IdentificationResult w =
+          whole_window("incremental: every prior segment relinearised, so refitted as the whole window (its own output weights)");
+      w.chunks_relinearized = r.chunks_relinearized;
+      return w;
+    }
     cut(SegmentList(simulated.begin() + static_cast<std::ptrdiff_t>(first_simulated), simulated.end()));
     add_costs(first_chunk);
     set_quadratic();
     ceres::Solve(options, &problem, &summary);
     r.iterations += static_cast<int>(summary.iterations.size());
-  }
-  if (prior && two_outputs && from_prior.empty() && summary.IsSolutionUsable()) {
-    // Every prior segment was simulated again: the update is a whole-window fit. With two outputs
-    // the prior's output weights would still hold, fixed when the prior was first built; the
-    // whole-window fit estimates them from the data, so refit as that one (its result exactly).
-    IncrementalUpdate whole = *update;
-    whole.prior = nullptr;
-    const size_t relinearized = r.chunks_relinearized;
-    r = IdentifyAtDriveValues(training, validation, warm_start, &whole);
-    r.chunks_relinearized = relinearized;
-    r.update = "incremental: every prior segment relinearised, so refitted as the whole window (its own output weights)";
-    return r;
   }
   r.termination = ceres::TerminationTypeToString(summary.termination_type);
   if (!summary.IsSolutionUsable()) {
