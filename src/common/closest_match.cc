@@ -34,10 +34,22 @@ std::string ClosestMatch(const std::string& word, const std::vector<std::string>
   size_t best_distance = SIZE_MAX;
   const std::string lw = Lower(word);
   for (const std::string& c : candidates) {
-    const size_t d = EditDistance(word, c);
     const size_t limit = std::clamp<size_t>(std::max(word.size(), c.size()) / 3, 1, 3);
     const std::string lc = Lower(c);
     const bool contains = !lw.empty() && !lc.empty() && (lc.find(lw) != std::string::npos || lw.find(lc) != std::string::npos);
+    // The distance is at least the difference in length, and exactly that when one word contains
+    // the other (delete the rest). So a long hostile word (a fuzzed 8 kB key) costs one substring
+    // search per candidate, not a |word| x |candidate| table: the table is filled only when the
+    // candidate can be within the limit.
+    const size_t length_gap = word.size() > c.size() ? word.size() - c.size() : c.size() - word.size();
+    size_t d;
+    if (contains) {
+      d = length_gap;
+    } else if (length_gap > limit) {
+      continue;
+    } else {
+      d = EditDistance(word, c);
+    }
     if ((d <= limit || contains) && d < best_distance) best = c, best_distance = d;
   }
   return best;
