@@ -98,10 +98,10 @@ int main(int argc, char** argv) {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
   std::printf("history %.2f gated h (%zu chunks; prior at %.2f h, its full fit %.1f s): incremental update %.2f s "
-              "(%zu chunks simulated, %zu from the prior, %d iterations), full refit %.2f s (%d iterations): "
+              "(%zu chunks simulated, %zu from the prior, %d iterations), full refit %.2f s (%d iterations after %d coarse): "
               "ratio %.1fx; EG %.4f vs %.4f deg/g, %.3f sigma apart; peak RSS %.0f MB\n",
               acc.gated_hours(), full.chunks, prior_fit.train_hours, prior_s, inc_s, inc.chunks_simulated,
-              inc.chunks_from_prior, inc.iterations, full_s, full.iterations, full_s / inc_s, inc.eg_deg_per_g,
+              inc.chunks_from_prior, inc.iterations, full_s, full.iterations, full.coarse_iterations, full_s / inc_s, inc.eg_deg_per_g,
               full.eg_deg_per_g, std::abs(inc.eg_rad_per_mps2 - full.eg_rad_per_mps2) / full.eg_se_rad_per_mps2,
               u.ru_maxrss / 1024.0);
   return inc.valid && full.valid ? 0 : 1;

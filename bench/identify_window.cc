@@ -30,13 +30,17 @@ long PeakRssKb() {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s GATED_HOURS [EFFECT...]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s GATED_HOURS [--no-coarse-start] [EFFECT...]\n", argv[0]);
     return 2;
   }
   const double want_h = std::atof(argv[1]);
-  std::vector<std::string> effects(argv + 2, argv + argc);
+  int first_effect = 2;
+  const bool coarse = !(argc > 2 && std::string(argv[2]) == "--no-coarse-start");
+  if (!coarse) ++first_effect;
+  std::vector<std::string> effects(argv + first_effect, argv + argc);
   ndsid::config::Config cfg = ndsid::config::LoadConfig(std::string(NDSID_SOURCE_DIR) + "/config/example_vehicle.yaml");
   cfg.identification.window_h = want_h;
+  if (!coarse) cfg.identification.coarse_min_chunks = 0;
   cfg.model_effects = effects;
   ndsid::config::SimulationConfig sim;
   sim.seed = 7;
@@ -82,10 +86,11 @@ int main(int argc, char** argv) {
   std::printf("truth: EG %.4f deg/g, RMSE at the true parameters %.4f m/s^2 (fit: %.4f)\n", eg_truth,
               id.Rmse(truth, segs), r.rmse_train_mps2);
   for (const auto& p : r.effect_params) std::printf("  %s = %.4g ± %.2g %s\n", p.name.c_str(), p.value, p.se, p.unit.c_str());
-  std::printf("window %.2f gated h (%zu segments, %zu residuals), model %s, threads %d: identification %.1f s "
-              "(%d iterations), peak RSS %.0f MB (%.0f MB before the fit); simulation+gating %.1f s; EG %.4f ± %.4f deg/g%s\n",
-              acc.window_hours(), segs.size(), r.residuals_train, r.model.c_str(), cfg.identification.threads, fit_s,
-              r.iterations, PeakRssKb() / 1024.0, rss_before / 1024.0, sim_s, r.eg_deg_per_g, r.eg_se_deg_per_g,
+  std::printf("window %.2f gated h (%zu segments, %zu residuals), model %s, outputs %s, threads %d: identification %.1f s "
+              "(%d iterations after %d on the coarse start), peak RSS %.0f MB (%.0f MB before the fit); simulation+gating %.1f s; EG %.4f ± %.4f deg/g%s\n",
+              acc.window_hours(), segs.size(), r.residuals_train, r.model.c_str(),
+              r.yaw_rate_output ? "a_y + yaw rate" : "a_y", cfg.identification.threads, fit_s,
+              r.iterations, r.coarse_iterations, PeakRssKb() / 1024.0, rss_before / 1024.0, sim_s, r.eg_deg_per_g, r.eg_se_deg_per_g,
               r.valid ? "" : (" NOT VALID: " + r.reason).c_str());
   return r.valid ? 0 : 1;
 }

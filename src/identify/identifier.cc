@@ -102,6 +102,9 @@ double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const st
 constexpr double kRelinearizeStep = 0.25;
 constexpr size_t kEgCheckChunks = 32;
 constexpr double kEgCheck = 0.15;
+// The coarse start's solves (IdentificationConfig::coarse_min_chunks) stop after this many
+// iterations each.
+constexpr int kCoarseIterations = 25;
 
 // Adds autocorrelation sums (lags 0..kAcfMaxLag) into a pooled vector.
 void AddSums(const std::vector<double>& x, std::vector<double>& pooled) {
@@ -843,6 +846,60 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   options.gradient_tolerance = 1e-12;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
+  // Coarse start of a large fit without a prior: the solver first runs on every k-th chunk, about
+  // coarse_chunks of them (interleaved over the whole window, so every part of it is represented),
+  // then finishes on the whole window from there. The optimum is the whole window's; the start
+  // only saves the whole window's early iterations, each a simulation of every chunk with
+  // derivatives. The same costs, bounds, fixed set and priors; the priors keep their weight, so
+  // they count relatively more on the subset, which moves only the start.
+  if (!prior && config_.coarse_min_chunks > 0 && config_.coarse_chunks > 0 && costs.size() >= config_.coarse_min_chunks &&
+      costs.size() >= 2 * config_.coarse_chunks) {
+    ceres::Problem coarse(problem_options);
+    const size_t stride = costs.size() / config_.coarse_chunks;
+    for (size_t i = stride / 2; i < costs.size(); i += stride) coarse.AddResidualBlock(costs[i].get(), nullptr, theta.data());
+    for (auto& pc : priors) coarse.AddResidualBlock(pc.get(), nullptr, theta.data());
+    for (int i = 0; i < np; ++i) {
+      coarse.SetParameterLowerBound(theta.data(), i, bounds[i].lower / scale[i]);
+      coarse.SetParameterUpperBound(theta.data(), i, bounds[i].upper / scale[i]);
+    }
+    if (!fixed.empty()) coarse.SetManifold(theta.data(), new ceres::SubsetManifold(np, fixed));
+    // A warm start may already be the whole window's optimum (the last fit); the subset's
+    // solution, a subset's statistical scatter away, would then be the worse start. The start
+    // kept is the one with the lower whole-window cost (one pass of residuals each, same weights).
+    ceres::Problem::EvaluateOptions eval_options;
+    eval_options.num_threads = config_.threads;
+    double cost_start = 0, cost_coarse = 0;
+    const std::vector<double> start = theta;
+    const bool evaluated = problem.Evaluate(eval_options, &cost_start, nullptr, nullptr, nullptr);
+    // Its solves are capped at kCoarseIterations: a subset that converges slowly (few chunks,
+    // weakly determined directions) hands over where it is; the whole window finishes.
+    ceres::Solver::Options coarse_options = options;
+    coarse_options.max_num_iterations = std::min(options.max_num_iterations, kCoarseIterations);
+    ceres::Solver::Summary coarse_summary;
+    ceres::Solve(coarse_options, &coarse, &coarse_summary);
+    r.coarse_iterations = static_cast<int>(coarse_summary.iterations.size());
+    bool use = evaluated && coarse_summary.IsSolutionUsable() &&
+               problem.Evaluate(eval_options, &cost_coarse, nullptr, nullptr, nullptr) && cost_coarse < cost_start;
+    // With two outputs, the output weights are then estimated at the coarse solution (from every
+    // chunk's residuals) instead of at the start values, and the subset refitted while they moved
+    // by more than 1.5x (at most twice); the whole window then starts with weights near its own.
+    // With one output the whole-window problem is the one it would be without the coarse start.
+    for (int round = 0; use && two_outputs && round < 2 && set_weights(); ++round) {
+      if (!priors.empty()) {
+        prior_weight = noise_level();
+        for (auto& pc : priors) pc->set_weight(prior_weight);
+      }
+      ceres::Solve(coarse_options, &coarse, &coarse_summary);
+      r.coarse_iterations += static_cast<int>(coarse_summary.iterations.size());
+      use = coarse_summary.IsSolutionUsable();
+    }
+    if (!use) std::copy(start.begin(), start.end(), theta.begin());
+    r.coarse_start_used = use;
+    spdlog::debug("coarse start on every {}th of {} chunks: {} iterations, {}; whole-window cost {:.8g} at the start, "
+                  "{:.8g} there: {}", stride, costs.size(), r.coarse_iterations,
+                  ceres::TerminationTypeToString(coarse_summary.termination_type), cost_start, cost_coarse,
+                  use ? "used" : "the start kept");
+  }
   ceres::Solve(options, &problem, &summary);
   r.iterations = static_cast<int>(summary.iterations.size());
   if (two_outputs && !prior && summary.IsSolutionUsable() && set_weights()) {

@@ -32,6 +32,11 @@ inline config::IdentificationConfig DefaultIdentificationConfig() {
 }
 
 inline model::Params<double> TruthParams() { return {1900, 2700, 75000, 120000, 1.15, 14.8}; }
+// The same as a parameter vector (base six, ModelSpec order), to append effects' truths to.
+inline std::vector<double> TruthVector() {
+  const auto p = TruthParams();
+  return {p.m, p.Jz, p.cv, p.ch, p.lv, p.is};
+}
 inline constexpr double kWheelbase = 2.648;
 
 // Smooth random inputs of one segment: steering a sum of 4 sinusoids (0.05..0.6 Hz) of up to

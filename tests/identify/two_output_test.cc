@@ -19,6 +19,7 @@ using ndsid::testing::kWheelbase;
 using ndsid::testing::Pointers;
 using ndsid::testing::SyntheticTwoOutputSegments;
 using ndsid::testing::TruthParams;
+using ndsid::testing::TruthVector;
 
 constexpr double kNoiseA = 0.05;                 // m/s^2, as the simulator's accelerometer
 constexpr double kNoiseR = 0.1 * M_PI / 180.0;  // rad/s, as the simulator's gyro (0.1 deg/s)
@@ -30,19 +31,14 @@ config::IdentificationConfig Cfg(bool yaw_rate) {
   return c;
 }
 
-std::vector<double> BaseTruth() {
-  const auto p = TruthParams();
-  return {p.m, p.Jz, p.cv, p.ch, p.lv, p.is};
-}
-
 // Catches: a second output that is mis-weighted, mis-signed or mis-aligned (the fit would move
 // away from the truth or its RMSEs off the noise), or that adds no information on EG.
 TEST(TwoOutputs, RecoversEgAndParametersOnCleanDataForThreeSeeds) {
   const model::ModelSpec spec;
   const double eg_true = model::SelfSteerGradient(TruthParams(), kWheelbase);
   for (uint64_t seed : {31u, 32u, 33u}) {
-    const auto train = SyntheticTwoOutputSegments(spec, BaseTruth(), 16, 60, kNoiseA, kNoiseR, seed);
-    const auto valid = SyntheticTwoOutputSegments(spec, BaseTruth(), 4, 60, kNoiseA, kNoiseR, seed + 100);
+    const auto train = SyntheticTwoOutputSegments(spec, TruthVector(), 16, 60, kNoiseA, kNoiseR, seed);
+    const auto valid = SyntheticTwoOutputSegments(spec, TruthVector(), 4, 60, kNoiseA, kNoiseR, seed + 100);
     const IdentificationResult two = Identifier(Cfg(true), kWheelbase).Identify(Pointers(train), Pointers(valid));
     const IdentificationResult one = Identifier(Cfg(false), kWheelbase).Identify(Pointers(train), Pointers(valid));
     ASSERT_TRUE(two.valid) << two.reason;
@@ -58,7 +54,7 @@ TEST(TwoOutputs, RecoversEgAndParametersOnCleanDataForThreeSeeds) {
     EXPECT_TRUE(two.yaw_rate_output);
     EXPECT_FALSE(one.yaw_rate_output);
     EXPECT_NEAR(two.eg_rad_per_mps2, eg_true, 0.01 * eg_true) << seed;
-    const auto truth = BaseTruth();
+    const auto truth = TruthVector();
     EXPECT_NEAR(two.params[model::kSteerRatio].value, truth[model::kSteerRatio], 0.005 * truth[model::kSteerRatio]);
     for (int i : {model::kYawInertia, model::kStiffFront, model::kStiffRear, model::kCgToFront}) {
       EXPECT_NEAR(two.params[i].value, truth[i], 0.03 * truth[i]) << model::kParamNames[i] << " seed " << seed;
@@ -114,7 +110,7 @@ BankError BankTrackingError(const Identifier& id, const IdentificationResult& fi
 TEST(TwoOutputs, GyroOffsetIsRecoveredAndNotAbsorbedByTheRoadBank) {
   const double r0 = 0.4 * kDeg;
   const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset"});
-  std::vector<double> truth = BaseTruth();
+  std::vector<double> truth = TruthVector();
   truth.push_back(0.0);  // crossfall, drawn per segment
   truth.push_back(r0);
   std::vector<double> bank_train, bank_valid;
@@ -156,7 +152,7 @@ TEST(TwoOutputs, GyroOffsetIsRecoveredAndNotAbsorbedByTheRoadBank) {
 // kinematic a_y = v r separates them): k_r = 2 % hidden, recovered with is and EG.
 TEST(TwoOutputs, GyroScaleIsRecoveredWithTheSteeringRatio) {
   const model::ModelSpec spec = model::ModelSpec::FromNames({"gyro_scale"});
-  std::vector<double> truth = BaseTruth();
+  std::vector<double> truth = TruthVector();
   truth.push_back(0.02);
   const auto train = SyntheticTwoOutputSegments(spec, truth, 16, 60, kNoiseA, kNoiseR, 71);
   const IdentificationResult fit = Identifier(Cfg(true), kWheelbase, spec).Identify(Pointers(train), {});
@@ -177,7 +173,7 @@ TEST(TwoOutputs, AccelScaleIsRecoveredWithTheYawRate) {
   const model::ModelSpec spec = model::ModelSpec::FromNames({"accel_scale"});
   const double eg_true = model::SelfSteerGradient(TruthParams(), kWheelbase);
   for (const auto& [k_a, seed] : {std::pair{0.025, 81u}, std::pair{-0.02, 82u}}) {
-    std::vector<double> truth = BaseTruth();
+    std::vector<double> truth = TruthVector();
     truth.push_back(k_a);
     const auto train = SyntheticTwoOutputSegments(spec, truth, 16, 60, kNoiseA, kNoiseR, seed);
     const IdentificationResult fit = Identifier(Cfg(true), kWheelbase, spec).Identify(Pointers(train), {});
@@ -200,8 +196,8 @@ TEST(TwoOutputs, AccelScaleIsRecoveredWithTheYawRate) {
 // Catches: a two-output configuration that changes the fit of a vehicle without a yaw rate
 // (no signal, or a signal with gaps): it must fall back to a_y alone, result for result.
 TEST(TwoOutputs, WithoutAYawRateFallsBackToAyAloneWithTheSameResult) {
-  auto train = SyntheticTwoOutputSegments(model::ModelSpec(), BaseTruth(), 8, 60, kNoiseA, kNoiseR, 51);
-  auto valid = SyntheticTwoOutputSegments(model::ModelSpec(), BaseTruth(), 2, 60, kNoiseA, kNoiseR, 52);
+  auto train = SyntheticTwoOutputSegments(model::ModelSpec(), TruthVector(), 8, 60, kNoiseA, kNoiseR, 51);
+  auto valid = SyntheticTwoOutputSegments(model::ModelSpec(), TruthVector(), 2, 60, kNoiseA, kNoiseR, 52);
   auto no_yaw = [](std::vector<stats::Segment> segs) {
     for (auto& s : segs) {
       s.has_yaw_rate = false;
@@ -242,13 +238,13 @@ TEST(TwoOutputs, WithoutAYawRateFallsBackToAyAloneWithTheSameResult) {
 TEST(GyroEffects, AutodiffJacobianMatchesNumericDifferences) {
   const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset", "gyro_scale", "gyro_delay"});
   const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset", "gyro_scale", "gyro_delay"});
-  std::vector<double> truth = BaseTruth();
+  std::vector<double> truth = TruthVector();
   truth.insert(truth.end(), {0.0, 0.4 * kDeg, 0.02, 0.05});
   const auto segs = SyntheticTwoOutputSegments(truth_spec, truth, 1, 20, kNoiseA, kNoiseR, 61, 0.2);
   const auto chunks = MakeChunks(Pointers(segs), 60, 1.5);
   ASSERT_EQ(chunks.size(), 1u);
   ASSERT_TRUE(chunks[0].has_yaw_rate());
-  std::vector<double> p = BaseTruth();
+  std::vector<double> p = TruthVector();
   p.insert(p.end(), {1.3, 0.3 * kDeg, 0.01, 0.0337});  // the delay off the sample grid (the shift interpolates)
   const size_t burn = BurnInSamples(chunks[0], 1.5);
   std::vector<double> e, jac;
@@ -287,7 +283,7 @@ namespace {
 TEST(TwoOutputDiagnosis, GyroOffsetRankedFirstOnTheStackedResiduals) {
   const double r0 = -0.3 * kDeg;
   const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"gyro_offset"});
-  std::vector<double> truth = BaseTruth();
+  std::vector<double> truth = TruthVector();
   truth.push_back(r0);
   const auto train = SyntheticTwoOutputSegments(truth_spec, truth, 12, 60, kNoiseA, kNoiseR, 91);
   const Identifier two(Cfg(true), kWheelbase, model::ModelSpec());

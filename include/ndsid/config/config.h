@@ -121,6 +121,12 @@ struct IdentificationConfig {
   double validation_fraction = 0.2;  // share of drives held out for validation RMSE
   int max_iterations = 50;
   int threads = 2;
+  // Coarse start of large whole-window fits (docs/identification.md): from coarse_min_chunks
+  // chunks on, the solver first runs on every k-th chunk (about coarse_chunks of them) and then
+  // finishes on all of them; coarse_min_chunks 0 turns it off. Not read from the YAML: the
+  // optimum is the whole window's either way; tests and benchmarks set them.
+  size_t coarse_min_chunks = 300;
+  size_t coarse_chunks = 100;
   // identification.outputs: [a_y] or [a_y, yaw_rate]. With the yaw rate, both outputs' residuals
   // are fitted in one problem, each divided by its own noise level; chunks without a yaw rate
   // signal fall back to a_y alone. ParseConfig's default is [a_y, yaw_rate] when signals.yaw_rate

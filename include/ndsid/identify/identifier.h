@@ -92,7 +92,9 @@ struct IdentificationResult {
   size_t residuals_validation = 0;
   size_t chunks = 0;
   double train_hours = 0;
-  int iterations = 0;
+  int iterations = 0;         // the solver's iterations on the whole window (every solve)
+  int coarse_iterations = 0;  // before them, on the coarse start's subset of chunks (large windows)
+  bool coarse_start_used = false;  // its solution was the whole window's start (else the start was better)
   double solve_seconds = 0;
   std::string termination;
   std::string se_method;  // "cluster-robust (N chunks)" or "autocorrelation-corrected"
