@@ -121,7 +121,7 @@ struct IdentificationConfig {
   double validation_fraction = 0.2;  // share of drives held out for validation RMSE
   int max_iterations = 50;
   int threads = 2;
-  // Coarse start of large whole-window fits (docs/identification.md): from coarse_min_chunks
+  // Coarse start of large whole-window fits (docs/incremental.md): from coarse_min_chunks
   // chunks on, the solver first runs on every k-th chunk (about coarse_chunks of them) and then
   // finishes on all of them; coarse_min_chunks 0 turns it off. Not read from the YAML: the
   // optimum is the whole window's either way; tests and benchmarks set them.
