@@ -1,4 +1,5 @@
 #include "chunk_cost.h"
+#include "parallel.h"
 
 #include <algorithm>
 #include <cmath>
@@ -31,20 +32,60 @@ double AutocorrelationTimeFromSums(const std::vector<double>& acf) {
   return tau;
 }
 
-double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk) {
-  std::vector<double> acf(kAcfMaxLag + 1, 0.0);
-  for (const auto& e : residuals_by_chunk) AddAutocorrelationSums(e, acf);
+namespace {
+
+// The autocorrelation sums of lags [first, last) pooled over `series`: each series' sums are
+// added per lag in the series' order, as AddAutocorrelationSums adds them (the same values for
+// any number of threads); acf is resized to `last`.
+void PooledAutocorrelationSums(const std::vector<std::vector<double>>& series, size_t first, size_t last, int threads,
+                               std::vector<double>& acf) {
+  const size_t width = last - first;
+  std::vector<double> sums(series.size() * width, 0.0);
+  std::vector<char> has(series.size() * width, 0);
+  ParallelFor(series.size(), threads, [&](size_t i) {
+    const std::vector<double>& e = series[i];
+    const size_t n = e.size();
+    for (size_t lag = first; lag < last && lag <= (n ? n - 1 : 0); ++lag) {
+      double s = 0;
+      for (size_t k = lag; k < n; ++k) s += e[k] * e[k - lag];
+      sums[i * width + lag - first] = s;
+      has[i * width + lag - first] = 1;
+    }
+  });
+  acf.resize(last, 0.0);
+  for (size_t i = 0; i < series.size(); ++i)
+    for (size_t j = 0; j < width; ++j)
+      if (has[i * width + j]) acf[first + j] += sums[i * width + j];
+}
+
+}  // namespace
+
+double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk, int threads) {
+  // Only the lags up to the first non-positive autocorrelation count: they are summed in blocks
+  // of growing width until one has turned up (or every lag to kAcfMaxLag is summed). Every lag
+  // summed has the value the full sums would give it, so the time is theirs.
+  std::vector<double> acf;
+  size_t done = 0;
+  for (size_t width = 16; done <= kAcfMaxLag; width *= 2) {
+    const size_t last = std::min(kAcfMaxLag + 1, done + width);
+    PooledAutocorrelationSums(residuals_by_chunk, done, last, threads, acf);
+    done = last;
+    if (!(acf[0] > 0)) break;
+    bool turned = false;
+    for (size_t lag = 1; lag < done && !turned; ++lag) turned = acf[lag] / acf[0] <= 0;
+    if (turned) break;
+  }
   return AutocorrelationTimeFromSums(acf);
 }
 
-double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_chunk) {
+double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_chunk, int threads) {
   double rss = 0;
   size_t n = 0;
   for (const auto& e : residuals_by_chunk) {
     for (double x : e) rss += x * x;
     n += e.size();
   }
-  return n ? rss / static_cast<double>(n) * IntegratedAutocorrelationTime(residuals_by_chunk) : 0.0;
+  return n ? rss / static_cast<double>(n) * IntegratedAutocorrelationTime(residuals_by_chunk, threads) : 0.0;
 }
 
 size_t BurnInSamples(const Chunk& c, double burn_in_s) {

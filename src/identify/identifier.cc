@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "chunk_cost.h"
+#include "parallel.h"
 #include "quadratic_prior.h"
 
 namespace ndsid::identify {
@@ -68,27 +69,32 @@ class PriorCost final : public ceres::CostFunction {
 
 // The chunk residuals at theta, one series per chunk and output: a_y series in `a`, yaw-rate
 // series in `r` (as weighted by the costs' current weights).
-void EvaluateSeries(const std::vector<std::unique_ptr<ChunkCost>>& costs, const std::vector<size_t>& n_a,
-                    const double* theta, std::vector<std::vector<double>>& a, std::vector<std::vector<double>>& r) {
+void EvaluateSeries(const std::vector<std::unique_ptr<CostFn>>& costs, const std::vector<size_t>& n_a,
+                    const double* theta, std::vector<std::vector<double>>& a, std::vector<std::vector<double>>& r,
+                    int threads) {
   a.clear();
   r.clear();
   const double* params[] = {theta};
+  std::vector<std::vector<double>> e(costs.size());
+  ParallelFor(costs.size(), threads, [&](size_t c) {
+    e[c].resize(static_cast<size_t>(costs[c]->num_residuals()));
+    costs[c]->Evaluate(params, e[c].data(), nullptr);
+  });
   for (size_t c = 0; c < costs.size(); ++c) {
-    std::vector<double> e(static_cast<size_t>(costs[c]->num_residuals()));
-    costs[c]->Evaluate(params, e.data(), nullptr);
-    a.emplace_back(e.begin(), e.begin() + static_cast<long>(n_a[c]));
-    if (e.size() > n_a[c]) r.emplace_back(e.begin() + static_cast<long>(n_a[c]), e.end());
+    a.emplace_back(e[c].begin(), e[c].begin() + static_cast<long>(n_a[c]));
+    if (e[c].size() > n_a[c]) r.emplace_back(e[c].begin() + static_cast<long>(n_a[c]), e[c].end());
+    std::vector<double>().swap(e[c]);
   }
 }
 
 // sigma_e^2 * tau of the (weighted) chunk residuals at theta, each output's series separately
 // (the weight of a prior).
-double NoiseLevel(const std::vector<std::unique_ptr<ChunkCost>>& costs, const std::vector<size_t>& n_a,
-                  const double* theta) {
+double NoiseLevel(const std::vector<std::unique_ptr<CostFn>>& costs, const std::vector<size_t>& n_a,
+                  const double* theta, int threads) {
   std::vector<std::vector<double>> a, r;
-  EvaluateSeries(costs, n_a, theta, a, r);
+  EvaluateSeries(costs, n_a, theta, a, r, threads);
   a.insert(a.end(), r.begin(), r.end());
-  return ResidualNoiseLevel(a);
+  return ResidualNoiseLevel(a, threads);
 }
 
 // The quadratics are straight valleys where the true cost's valley is curved: along directions
@@ -733,9 +739,9 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   }
   // The noise level of the (weighted) residuals at theta, pooled with the prior's chunks.
   auto noise_level = [&]() {
-    if (!prior) return NoiseLevel(costs, n_a, theta.data());
+    if (!prior) return NoiseLevel(costs, n_a, theta.data(), config_.threads);
     std::vector<std::vector<double>> a, rr;
-    EvaluateSeries(costs, n_a, theta.data(), a, rr);
+    EvaluateSeries(costs, n_a, theta.data(), a, rr, config_.threads);
     std::vector<double> acf(kAcfMaxLag + 1, 0.0);
     double n = 0;
     for (const auto* series : {&a, &rr}) {
@@ -754,9 +760,9 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     const OutputWeights old = *weights;
     *weights = {1.0, 1.0};
     std::vector<std::vector<double>> a, rr;
-    EvaluateSeries(costs, n_a, theta.data(), a, rr);
-    level_a = ResidualNoiseLevel(a);
-    level_r = ResidualNoiseLevel(rr);
+    EvaluateSeries(costs, n_a, theta.data(), a, rr, config_.threads);
+    level_a = ResidualNoiseLevel(a, config_.threads);
+    level_r = ResidualNoiseLevel(rr, config_.threads);
     if (!(level_a > 0) || !(level_r > 0) || !std::isfinite(level_a) || !std::isfinite(level_r)) {
       *weights = old;
       return false;
@@ -1018,18 +1024,48 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   std::vector<std::vector<double>> series_a, series_r;
   const bool keep = update && update->keep;
   std::vector<LinearizedChunk> simulated_lin(keep ? costs.size() : 0);
+  // Each chunk's residuals, J'J and score are computed on config_.threads threads, then added up
+  // in chunk order (the same sums for any number of threads).
+  struct AtOptimum {
+    std::vector<double> e;
+    Eigen::MatrixXd jtj;
+    Eigen::VectorXd score;
+  };
+  std::vector<AtOptimum> at(costs.size());
   const double* params[] = {theta.data()};
-  for (size_t ci = 0; ci < costs.size(); ++ci) {
-    const auto& cost = costs[ci];
-    const int m = cost->num_residuals();
-    std::vector<double> e(static_cast<size_t>(m));
+  ParallelFor(costs.size(), config_.threads, [&](size_t ci) {
+    const ChunkCost& cost = *costs[ci];
+    const int m = cost.num_residuals();
+    std::vector<double>& e = at[ci].e;
+    e.resize(static_cast<size_t>(m));
     std::vector<double> jac(static_cast<size_t>(m) * np);
     double* jacs[] = {jac.data()};
-    cost->Evaluate(params, e.data(), jacs);
+    cost.Evaluate(params, e.data(), jacs);
     Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, np);
-    Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
-    jtj += J.transpose() * J;  // the model output's Jacobian is -J: signs cancel here and below
-    chunk_scores.push_back(J.transpose() * ev);
+    at[ci].jtj = J.transpose() * J;  // the model output's Jacobian is -J: signs cancel here and below
+    at[ci].score = J.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data(), m);
+    if (keep) {  // this chunk's quadratic at the estimate: the next update's prior
+      const auto split = e.begin() + static_cast<long>(n_a[ci]);
+      LinearizedChunk& lc = simulated_lin[ci];
+      lc.theta = theta;
+      lc.jtj.resize(static_cast<size_t>(np) * np);
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(lc.jtj.data(), np, np) = at[ci].jtj;
+      lc.score.resize(static_cast<size_t>(np));
+      Eigen::Map<Eigen::VectorXd>(lc.score.data(), np) = at[ci].score;
+      lc.rss = Eigen::Map<const Eigen::VectorXd>(e.data(), m).squaredNorm();
+      lc.n_a_y = static_cast<uint32_t>(n_a[ci]);
+      lc.n_yaw_rate = static_cast<uint32_t>(e.size() - n_a[ci]);
+      for (auto it = e.begin(); it != split; ++it) lc.rss_a_y += (*it / weights->a_y) * (*it / weights->a_y);
+      for (auto it = split; it != e.end(); ++it) lc.rss_yaw_rate += (*it / weights->yaw_rate) * (*it / weights->yaw_rate);
+      AddAutocorrelationSums(std::vector<double>(e.begin(), split), lc.acf_a_y);
+      if (split != e.end()) AddAutocorrelationSums(std::vector<double>(split, e.end()), lc.acf_yaw_rate);
+    }
+  });
+  for (size_t ci = 0; ci < costs.size(); ++ci) {
+    std::vector<double>& e = at[ci].e;
+    Eigen::Map<const Eigen::VectorXd> ev(e.data(), static_cast<long>(e.size()));
+    jtj += at[ci].jtj;
+    chunk_scores.push_back(std::move(at[ci].score));
     rss += ev.squaredNorm();
     const auto split = e.begin() + static_cast<long>(n_a[ci]);
     for (auto it = e.begin(); it != split; ++it) rss_a += (*it / weights->a_y) * (*it / weights->a_y);
@@ -1041,21 +1077,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       chunk_residuals.emplace_back(split, e.end());
       series_r.emplace_back(split, e.end());
     }
-    if (keep) {  // this chunk's quadratic at the estimate: the next update's prior
-      LinearizedChunk& lc = simulated_lin[ci];
-      lc.theta = theta;
-      lc.jtj.resize(static_cast<size_t>(np) * np);
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(lc.jtj.data(), np, np) = J.transpose() * J;
-      lc.score.resize(static_cast<size_t>(np));
-      Eigen::Map<Eigen::VectorXd>(lc.score.data(), np) = chunk_scores.back();
-      lc.rss = ev.squaredNorm();
-      lc.n_a_y = static_cast<uint32_t>(n_a[ci]);
-      lc.n_yaw_rate = static_cast<uint32_t>(e.size() - n_a[ci]);
-      for (auto it = e.begin(); it != split; ++it) lc.rss_a_y += (*it / weights->a_y) * (*it / weights->a_y);
-      for (auto it = split; it != e.end(); ++it) lc.rss_yaw_rate += (*it / weights->yaw_rate) * (*it / weights->yaw_rate);
-      AddAutocorrelationSums(series_a.back(), lc.acf_a_y);
-      if (split != e.end()) AddAutocorrelationSums(series_r.back(), lc.acf_yaw_rate);
-    }
+    std::vector<double>().swap(e);
   }
   r.chunks_simulated = chunks.size();
   for (const Chunk& c : chunks) r.train_hours += c.n * c.dt_s / 3600.0;
@@ -1098,10 +1120,10 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
   } else if (two_outputs) {
     r.rmse_train_yaw_radps = std::sqrt(rss_r / static_cast<double>(n_res - n_res_a));
-    r.noise_level_a_y = ResidualNoiseLevel(series_a) / (weights->a_y * weights->a_y);
-    r.noise_level_yaw_rate = ResidualNoiseLevel(series_r) / (weights->yaw_rate * weights->yaw_rate);
+    r.noise_level_a_y = ResidualNoiseLevel(series_a, config_.threads) / (weights->a_y * weights->a_y);
+    r.noise_level_yaw_rate = ResidualNoiseLevel(series_r, config_.threads) / (weights->yaw_rate * weights->yaw_rate);
   } else {
-    r.noise_level_a_y = ResidualNoiseLevel(series_a);
+    r.noise_level_a_y = ResidualNoiseLevel(series_a, config_.threads);
   }
   if (!std::isfinite(r.rmse_train_mps2)) {
     r.reason = "non-finite residuals at the solution";
@@ -1141,7 +1163,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     AddSums(acf_r, acf);
     tau = AutocorrelationTimeFromSums(acf);
   } else {
-    tau = IntegratedAutocorrelationTime(chunk_residuals);
+    tau = IntegratedAutocorrelationTime(chunk_residuals, config_.threads);
   }
   // Classical: (J'J / (sigma^2 tau) + P)^-1; sandwich bread: (J'J + sigma^2 tau P)^-1.
   const Eigen::MatrixXd jtj_inv = (jtj_f + sigma2 * tau * prior_info).completeOrthogonalDecomposition().pseudoInverse();

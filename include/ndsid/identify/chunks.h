@@ -66,12 +66,13 @@ void AddAutocorrelationSums(const std::vector<double>& e, std::vector<double>& a
 double AutocorrelationTimeFromSums(const std::vector<double>& acf);
 
 // Integrated autocorrelation time of residual series (1 + 2 sum of the autocorrelation up to
-// the first lag where it turns negative), pooled over chunks, in samples.
-double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk);
+// the first lag where it turns negative), pooled over chunks, in samples. Only the lags up to
+// that one are summed; `threads` share the series (the result is the same for any number).
+double IntegratedAutocorrelationTime(const std::vector<std::vector<double>>& residuals_by_chunk, int threads = 1);
 
 // The noise level of residual series: sigma^2 (mean square) times their autocorrelation time;
 // 0 without residuals.
-double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_chunk);
+double ResidualNoiseLevel(const std::vector<std::vector<double>>& residuals_by_chunk, int threads = 1);
 
 // A parameter vector of model `from` re-laid out for model `to`: shared parameters by name,
 // the others at their neutral value.

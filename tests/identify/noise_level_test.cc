@@ -1,0 +1,94 @@
+// The residuals' noise level sigma^2 tau and autocorrelation time: summed only up to the lag
+// that decides tau, spread over threads, and still exactly the full sums' values; and a fit whose
+// passes over the chunks run on several threads gives the single thread's result.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "ndsid/identify/chunks.h"
+#include "ndsid/identify/identifier.h"
+#include "synthetic_segments.h"
+
+namespace ndsid::identify {
+namespace {
+
+namespace t = ndsid::testing;
+
+// Series of AR(1) noise with coefficient phi, of mixed lengths (some shorter than the lags
+// summed, one empty).
+std::vector<std::vector<double>> Ar1Series(double phi, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::uniform_int_distribution<size_t> len(0, 4000);
+  std::vector<std::vector<double>> out;
+  for (int c = 0; c < 40; ++c) {
+    std::vector<double> e(c == 7 ? 0 : (c % 5 == 0 ? len(rng) % 100 : len(rng)));
+    double x = n(rng);
+    for (double& v : e) v = x = phi * x + n(rng);
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+double FullSumsTime(const std::vector<std::vector<double>>& series) {
+  std::vector<double> acf;
+  for (const auto& e : series) AddAutocorrelationSums(e, acf);
+  return AutocorrelationTimeFromSums(acf);
+}
+
+// Catches: a lazy sum that stops before the deciding lag, sums a lag differently from
+// AddAutocorrelationSums, or whose result depends on the number of threads. The correlation
+// ranges from none to one that stays positive past every lag summed (tau from all 250).
+TEST(NoiseLevel, LazyAutocorrelationTimeEqualsTheFullSums) {
+  for (const double phi : {0.0, 0.5, 0.9, 0.99, 0.999}) {
+    for (const uint64_t seed : {1u, 2u, 3u}) {
+      const auto series = Ar1Series(phi, seed);
+      const double full = FullSumsTime(series);
+      for (const int threads : {1, 2, 3}) {
+        EXPECT_EQ(IntegratedAutocorrelationTime(series, threads), full) << "phi " << phi << " threads " << threads;
+      }
+      EXPECT_EQ(ResidualNoiseLevel(series, 2), ResidualNoiseLevel(series, 1)) << "phi " << phi;
+      if (phi == 0.0) {
+        EXPECT_LT(full, 1.5);
+      }
+      if (phi == 0.9) {  // AR(1): tau = (1 + phi) / (1 - phi) = 19
+        EXPECT_NEAR(full, (1 + phi) / (1 - phi), 0.15 * (1 + phi) / (1 - phi));
+      }
+    }
+  }
+  EXPECT_EQ(IntegratedAutocorrelationTime({}, 2), 1.0);
+  EXPECT_EQ(ResidualNoiseLevel({{}, {}}, 2), 0.0);
+}
+
+// Catches: a pass over the chunks (output weights, the priors' weight, J'J and scores at the
+// optimum, the noise levels) whose sums depend on the thread count or miss a chunk. Two outputs
+// with road_bank and gyro_offset, fitted on 1 and on 2 threads.
+TEST(NoiseLevel, FitOnTwoThreadsEqualsOneThread) {
+  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset"});
+  std::vector<double> truth = t::TruthVector();
+  truth.push_back(0.0);
+  truth.push_back(0.3 * M_PI / 180.0);
+  const auto train = t::SyntheticTwoOutputSegments(truth_spec, truth, 24, 60, 0.05, 0.1 * M_PI / 180.0, 81, 0.2);
+  const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset"});
+  config::IdentificationConfig cfg = t::DefaultIdentificationConfig();
+  cfg.yaw_rate_output = true;
+  cfg.threads = 1;
+  const IdentificationResult one = Identifier(cfg, t::kWheelbase, spec).Identify(t::Pointers(train), {});
+  cfg.threads = 2;
+  const IdentificationResult two = Identifier(cfg, t::kWheelbase, spec).Identify(t::Pointers(train), {});
+  ASSERT_TRUE(one.valid) << one.reason;
+  ASSERT_TRUE(two.valid) << two.reason;
+  // Ceres's own evaluation may order its sums by thread; everything of ours is summed in chunk
+  // order. So equal to the last digits, not necessarily bit for bit.
+  EXPECT_NEAR(two.eg_rad_per_mps2, one.eg_rad_per_mps2, 1e-9 * std::abs(one.eg_rad_per_mps2));
+  EXPECT_NEAR(two.eg_se_rad_per_mps2, one.eg_se_rad_per_mps2, 1e-9 * one.eg_se_rad_per_mps2);
+  EXPECT_NEAR(two.noise_level_a_y, one.noise_level_a_y, 1e-9 * one.noise_level_a_y);
+  EXPECT_NEAR(two.noise_level_yaw_rate, one.noise_level_yaw_rate, 1e-9 * one.noise_level_yaw_rate);
+  EXPECT_NEAR(two.rmse_train_mps2, one.rmse_train_mps2, 1e-9 * one.rmse_train_mps2);
+  EXPECT_GT(one.noise_level_yaw_rate, 0.0);
+}
+
+}  // namespace
+}  // namespace ndsid::identify
