@@ -22,7 +22,7 @@ namespace ndsid::identify {
 std::string CeresVersion() { return CERES_VERSION_STRING; }
 namespace {
 
-using CostFn = ChunkCost;
+using CostFn = CompressedChunkCost;
 
 std::string DescribeDirection(const Eigen::VectorXd& v, const std::vector<int>& free, const model::ModelSpec& spec) {
   std::ostringstream os;
@@ -77,8 +77,8 @@ void EvaluateSeries(const std::vector<std::unique_ptr<CostFn>>& costs, const std
   const double* params[] = {theta};
   std::vector<std::vector<double>> e(costs.size());
   ParallelFor(costs.size(), threads, [&](size_t c) {
-    e[c].resize(static_cast<size_t>(costs[c]->num_residuals()));
-    costs[c]->Evaluate(params, e[c].data(), nullptr);
+    e[c].resize(static_cast<size_t>(costs[c]->full().num_residuals()));
+    costs[c]->full().Evaluate(params, e[c].data(), nullptr);
   });
   for (size_t c = 0; c < costs.size(); ++c) {
     a.emplace_back(e[c].begin(), e[c].begin() + static_cast<long>(n_a[c]));
@@ -718,9 +718,9 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     for (size_t ci = first; ci < chunks.size(); ++ci) {
       const Chunk& c = chunks[ci];
       const size_t burn = BurnInSamples(c, config_.burn_in_s);
-      costs.push_back(MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, weights));
+      costs.push_back(std::make_unique<CostFn>(MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, weights), weights));
       problem.AddResidualBlock(costs.back().get(), nullptr, theta.data());
-      n_res += static_cast<size_t>(costs.back()->num_residuals());
+      n_res += static_cast<size_t>(costs.back()->full().num_residuals());
       n_a.push_back(c.n - burn);
       n_res_a += c.n - burn;
     }
@@ -1034,7 +1034,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   std::vector<AtOptimum> at(costs.size());
   const double* params[] = {theta.data()};
   ParallelFor(costs.size(), config_.threads, [&](size_t ci) {
-    const ChunkCost& cost = *costs[ci];
+    const ChunkCost& cost = costs[ci]->full();
     const int m = cost.num_residuals();
     std::vector<double>& e = at[ci].e;
     e.resize(static_cast<size_t>(m));
