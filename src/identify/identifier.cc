@@ -773,16 +773,20 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   };
   if (!prior) set_weights();
   std::vector<int> fixed, free;
-  for (int i = 0; i < np; ++i) {
-    (bounds[i].fixed ? fixed : free).push_back(i);
-    problem.SetParameterLowerBound(theta.data(), i, bounds[i].lower / scale[i]);
-    problem.SetParameterUpperBound(theta.data(), i, bounds[i].upper / scale[i]);
-  }
+  for (int i = 0; i < np; ++i) (bounds[i].fixed ? fixed : free).push_back(i);
   if (free.empty()) {
     r.reason = "every parameter is fixed";
     return r;
   }
-  if (!fixed.empty()) problem.SetManifold(theta.data(), new ceres::SubsetManifold(np, fixed));
+  // The box and the fixed parameters of a problem on theta (the whole window's, the coarse start's).
+  auto constrain = [&](ceres::Problem& pr) {
+    for (int i = 0; i < np; ++i) {
+      pr.SetParameterLowerBound(theta.data(), i, bounds[i].lower / scale[i]);
+      pr.SetParameterUpperBound(theta.data(), i, bounds[i].upper / scale[i]);
+    }
+    if (!fixed.empty()) pr.SetManifold(theta.data(), new ceres::SubsetManifold(np, fixed));
+  };
+  constrain(problem);
   std::vector<std::unique_ptr<PriorCost>> priors;
   for (const config::ParameterPrior& pr : config_.priors) {
     for (int i = 0; i < np; ++i) {
@@ -837,11 +841,15 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
                   "its standard error includes it", ev.note.c_str(), ev.prior_sd);
     evidence_notes.push_back(note);
   }
+  // The priors' weight: the noise level of the residuals at theta (the scale of a residual's
+  // information); taken again wherever the weights or the fit moved it.
   double prior_weight = 0;
-  if (!priors.empty()) {
+  auto reweight_priors = [&]() {
+    if (priors.empty()) return;
     prior_weight = noise_level();
     for (auto& pc : priors) pc->set_weight(prior_weight);
-  }
+  };
+  reweight_priors();
 
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
@@ -864,11 +872,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     const size_t stride = costs.size() / config_.coarse_chunks;
     for (size_t i = stride / 2; i < costs.size(); i += stride) coarse.AddResidualBlock(costs[i].get(), nullptr, theta.data());
     for (auto& pc : priors) coarse.AddResidualBlock(pc.get(), nullptr, theta.data());
-    for (int i = 0; i < np; ++i) {
-      coarse.SetParameterLowerBound(theta.data(), i, bounds[i].lower / scale[i]);
-      coarse.SetParameterUpperBound(theta.data(), i, bounds[i].upper / scale[i]);
-    }
-    if (!fixed.empty()) coarse.SetManifold(theta.data(), new ceres::SubsetManifold(np, fixed));
+    constrain(coarse);
     // A warm start may already be the whole window's optimum (the last fit); the subset's
     // solution, a subset's statistical scatter away, would then be the worse start. The start
     // kept is the one with the lower whole-window cost (one pass of residuals each, same weights).
@@ -890,11 +894,11 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     // chunk's residuals) instead of at the start values, and the subset refitted while they moved
     // by more than 1.5x (at most twice); the whole window then starts with weights near its own.
     // With one output the whole-window problem is the one it would be without the coarse start.
+    // If a round's solve fails, theta goes back to the start below but the weights stay at the
+    // estimate from the subset's solution; the whole window's own check at its solution (refit
+    // once when the weights moved 1.5x) still applies.
     for (int round = 0; use && two_outputs && round < 2 && set_weights(); ++round) {
-      if (!priors.empty()) {
-        prior_weight = noise_level();
-        for (auto& pc : priors) pc->set_weight(prior_weight);
-      }
+      reweight_priors();
       ceres::Solve(coarse_options, &coarse, &coarse_summary);
       r.coarse_iterations += static_cast<int>(coarse_summary.iterations.size());
       use = coarse_summary.IsSolutionUsable();
@@ -910,10 +914,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   r.iterations = static_cast<int>(summary.iterations.size());
   if (two_outputs && !prior && summary.IsSolutionUsable() && set_weights()) {
     // The outputs' noise levels at the solution differ from those at the start: refit once.
-    if (!priors.empty()) {
-      prior_weight = noise_level();
-      for (auto& pc : priors) pc->set_weight(prior_weight);
-    }
+    reweight_priors();
     ceres::Solve(options, &problem, &summary);
     r.iterations += static_cast<int>(summary.iterations.size());
     spdlog::debug("two outputs: refitted with weights a_y {:.4g}, yaw rate {:.4g}", weights->a_y, weights->yaw_rate);
