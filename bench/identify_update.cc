@@ -42,6 +42,8 @@ int main(int argc, char** argv) {
   ndsid::config::Config cfg = ndsid::config::LoadConfig(std::string(NDSID_SOURCE_DIR) + "/config/example_vehicle.yaml");
   cfg.identification.window_h = want_h;
   cfg.model_effects = effects;
+  if (std::getenv("NDSID_AY_ONLY")) cfg.identification.yaw_rate_output = false;
+  if (const char* c = std::getenv("NDSID_COARSE_MIN_CHUNKS")) cfg.identification.coarse_min_chunks = static_cast<size_t>(std::atol(c));
   const double prior_h = want_h - cfg.identification.period_s / 3600.0;
   ndsid::config::SimulationConfig sim;
   sim.seed = 7;
