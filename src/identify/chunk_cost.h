@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <cstring>
 #include <memory>
 #include <vector>
@@ -110,8 +109,8 @@ class CompressedChunkCost : public ceres::CostFunction {
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const int np = cost_->parameter_block_sizes()[0], m = cost_->num_residuals();
-    std::vector<double> e(static_cast<size_t>(m));
     if (jacobians == nullptr || jacobians[0] == nullptr) {
+      std::vector<double> e(static_cast<size_t>(m));
       if (!cost_->Evaluate(parameters, e.data(), nullptr)) return false;
       std::fill(residuals, residuals + np, 0.0);
       residuals[np] = Eigen::Map<const Eigen::VectorXd>(e.data(), m).norm();
@@ -122,7 +121,7 @@ class CompressedChunkCost : public ceres::CostFunction {
     if (!(valid_ && std::memcmp(parameters[0], theta_.data(), static_cast<size_t>(np) * sizeof(double)) == 0 &&
           std::memcmp(&w, &weights_at_, sizeof w) == 0)) {
       valid_ = false;
-      std::vector<double> jac(static_cast<size_t>(m) * np);
+      std::vector<double> e(static_cast<size_t>(m)), jac(static_cast<size_t>(m) * np);
       double* jacs[] = {jac.data()};
       if (!cost_->Evaluate(parameters, e.data(), jacs)) return false;
       const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, np);

@@ -11,14 +11,23 @@ namespace ndsid::identify {
 // Integrated autocorrelation time of the residuals (1 + 2 sum of the autocorrelation up to the
 // first lag where it turns negative), pooled over chunks: the factor by which strongly
 // correlated 50 Hz residuals overstate the information in the data.
+namespace {
+
+// The lags one series contributes to: 0 .. min(kAcfMaxLag, n - 1) (lag 0 also when empty).
+size_t LastLag(const std::vector<double>& e) { return std::min(kAcfMaxLag, e.empty() ? 0 : e.size() - 1); }
+
+// sum_k e_k e_(k-lag): the one definition of a lag's sum, so pooled and per-chunk sums agree.
+double LagSum(const std::vector<double>& e, size_t lag) {
+  double s = 0;
+  for (size_t k = lag; k < e.size(); ++k) s += e[k] * e[k - lag];
+  return s;
+}
+
+}  // namespace
+
 void AddAutocorrelationSums(const std::vector<double>& e, std::vector<double>& acf) {
   acf.resize(kAcfMaxLag + 1, 0.0);
-  const size_t n = e.size();
-  for (size_t lag = 0; lag <= std::min(kAcfMaxLag, n ? n - 1 : 0); ++lag) {
-    double s = 0;
-    for (size_t k = lag; k < n; ++k) s += e[k] * e[k - lag];
-    acf[lag] += s;
-  }
+  for (size_t lag = 0; lag <= LastLag(e); ++lag) acf[lag] += LagSum(e, lag);
 }
 
 double AutocorrelationTimeFromSums(const std::vector<double>& acf) {
@@ -41,21 +50,12 @@ void PooledAutocorrelationSums(const std::vector<std::vector<double>>& series, s
                                std::vector<double>& acf) {
   const size_t width = last - first;
   std::vector<double> sums(series.size() * width, 0.0);
-  std::vector<char> has(series.size() * width, 0);
   ParallelFor(series.size(), threads, [&](size_t i) {
-    const std::vector<double>& e = series[i];
-    const size_t n = e.size();
-    for (size_t lag = first; lag < last && lag <= (n ? n - 1 : 0); ++lag) {
-      double s = 0;
-      for (size_t k = lag; k < n; ++k) s += e[k] * e[k - lag];
-      sums[i * width + lag - first] = s;
-      has[i * width + lag - first] = 1;
-    }
+    for (size_t lag = first; lag < last && lag <= LastLag(series[i]); ++lag) sums[i * width + lag - first] = LagSum(series[i], lag);
   });
   acf.resize(last, 0.0);
   for (size_t i = 0; i < series.size(); ++i)
-    for (size_t j = 0; j < width; ++j)
-      if (has[i * width + j]) acf[first + j] += sums[i * width + j];
+    for (size_t lag = first; lag < last && lag <= LastLag(series[i]); ++lag) acf[lag] += sums[i * width + lag - first];
 }
 
 }  // namespace
