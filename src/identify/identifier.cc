@@ -13,6 +13,7 @@
 #include <memory>
 #include <sstream>
 
+#include "active_set.h"
 #include "chunk_cost.h"
 #include "parallel.h"
 #include "quadratic_prior.h"
@@ -860,6 +861,16 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   options.gradient_tolerance = 1e-12;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
+  // Every solve holds the parameters that settle on a bound (active_set.h): Ceres's projected
+  // steps crawl there. Returns the iterations of all its rounds.
+  auto solve = [&](const ceres::Solver::Options& o, ceres::Problem& pr, ceres::Solver::Summary& s) {
+    const ActiveSetSolve a = SolveWithActiveSet(o, pr, theta.data(), np, fixed, s);
+    r.active_set_rounds += a.rounds - 1;
+    if (a.rounds > 1)
+      spdlog::debug("active set: {} rounds, {} iterations, {} held at the end, {} released{}", a.rounds, a.iterations,
+                    a.held.size(), a.released.size(), a.fallback ? ", finished by a plain projected solve" : "");
+    return static_cast<int>(a.iterations);
+  };
   // Coarse start of a large fit without a prior: the solver first runs on every k-th chunk, about
   // coarse_chunks of them (interleaved over the whole window, so every part of it is represented),
   // then finishes on the whole window from there. The optimum is the whole window's; the start
@@ -886,8 +897,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     ceres::Solver::Options coarse_options = options;
     coarse_options.max_num_iterations = std::min(options.max_num_iterations, kCoarseIterations);
     ceres::Solver::Summary coarse_summary;
-    ceres::Solve(coarse_options, &coarse, &coarse_summary);
-    r.coarse_iterations = static_cast<int>(coarse_summary.iterations.size());
+    r.coarse_iterations = solve(coarse_options, coarse, coarse_summary);
     bool use = evaluated && coarse_summary.IsSolutionUsable() &&
                problem.Evaluate(eval_options, &cost_coarse, nullptr, nullptr, nullptr) && cost_coarse < cost_start;
     // With two outputs, the output weights are then estimated at the coarse solution (from every
@@ -899,8 +909,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     // once when the weights moved 1.5x) still applies.
     for (int round = 0; use && two_outputs && round < 2 && set_weights(); ++round) {
       reweight_priors();
-      ceres::Solve(coarse_options, &coarse, &coarse_summary);
-      r.coarse_iterations += static_cast<int>(coarse_summary.iterations.size());
+      r.coarse_iterations += solve(coarse_options, coarse, coarse_summary);
       use = coarse_summary.IsSolutionUsable();
     }
     if (!use) std::copy(start.begin(), start.end(), theta.begin());
@@ -910,13 +919,11 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
                   ceres::TerminationTypeToString(coarse_summary.termination_type), cost_start, cost_coarse,
                   use ? "used" : "the start kept");
   }
-  ceres::Solve(options, &problem, &summary);
-  r.iterations = static_cast<int>(summary.iterations.size());
+  r.iterations = solve(options, problem, summary);
   if (two_outputs && !prior && summary.IsSolutionUsable() && set_weights()) {
     // The outputs' noise levels at the solution differ from those at the start: refit once.
     reweight_priors();
-    ceres::Solve(options, &problem, &summary);
-    r.iterations += static_cast<int>(summary.iterations.size());
+    r.iterations += solve(options, problem, summary);
     spdlog::debug("two outputs: refitted with weights a_y {:.4g}, yaw rate {:.4g}", weights->a_y, weights->yaw_rate);
   }
   if (!priors.empty() && summary.IsSolutionUsable()) {
@@ -925,8 +932,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     if (w > 0 && (w > 2 * prior_weight || w < 0.5 * prior_weight)) {
       prior_weight = w;
       for (auto& pc : priors) pc->set_weight(prior_weight);
-      ceres::Solve(options, &problem, &summary);
-      r.iterations += static_cast<int>(summary.iterations.size());
+      r.iterations += solve(options, problem, summary);
     }
   }
   // Incremental: if the solution left some prior segments' linearisation points, simulate them
@@ -1007,8 +1013,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     cut(SegmentList(simulated.begin() + static_cast<std::ptrdiff_t>(first_simulated), simulated.end()));
     add_costs(first_chunk);
     set_quadratic();
-    ceres::Solve(options, &problem, &summary);
-    r.iterations += static_cast<int>(summary.iterations.size());
+    r.iterations += solve(options, problem, summary);
   }
   r.termination = ceres::TerminationTypeToString(summary.termination_type);
   if (!summary.IsSolutionUsable()) {

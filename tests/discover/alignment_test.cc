@@ -82,7 +82,10 @@ TEST(Alignment, FindsKnownSkewsAndAlignedCopiesRestoreTheData) {
   const auto truth_fit = id.Identify(Pointers(truth), {}, std::optional<std::vector<double>>{});
   std::printf("RMSE skewed %.4f, aligned %.4f, truth %.4f\n", fit.rmse_train_mps2, refit.rmse_train_mps2,
               truth_fit.rmse_train_mps2);
-  EXPECT_GT(fit.rmse_train_mps2, 1.1 * truth_fit.rmse_train_mps2);
+  // The skewed fit absorbs part of the 60 ms skew (four parameters end on their bounds): at its
+  // exact optimum the RMSE is about 7 % above the truth's (the projected solve alone had stopped
+  // short, at 18 %).
+  EXPECT_GT(fit.rmse_train_mps2, 1.05 * truth_fit.rmse_train_mps2);
   EXPECT_LT(refit.rmse_train_mps2, 1.02 * truth_fit.rmse_train_mps2);
 }
 

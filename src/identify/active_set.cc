@@ -1,0 +1,129 @@
+#include "active_set.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+namespace ndsid::identify {
+namespace {
+
+// Stops the solve once a free parameter has sat on a bound for `hold_after` accepted iterations.
+class BoundWatch final : public ceres::IterationCallback {
+ public:
+  BoundWatch(const double* theta, const std::vector<double>& lower, const std::vector<double>& upper,
+             const std::vector<bool>& movable, int hold_after)
+      : theta_(theta), lower_(lower), upper_(upper), movable_(movable), hold_after_(hold_after),
+        count_(lower.size(), 0) {}
+
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (s.iteration == 0 || !s.step_is_successful) return ceres::SOLVER_CONTINUE;
+    bool stop = false;
+    for (size_t i = 0; i < count_.size(); ++i) {
+      count_[i] = movable_[i] && OnBound(i) ? count_[i] + 1 : 0;
+      stop = stop || count_[i] >= hold_after_;
+    }
+    return stop ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
+  }
+  bool stopped_it() const {
+    return std::any_of(count_.begin(), count_.end(), [&](int c) { return c >= hold_after_; });
+  }
+
+ private:
+  bool OnBound(size_t i) const { return theta_[i] <= lower_[i] || theta_[i] >= upper_[i]; }
+  const double* theta_;
+  const std::vector<double>& lower_;
+  const std::vector<double>& upper_;
+  const std::vector<bool>& movable_;
+  int hold_after_;
+  std::vector<int> count_;
+};
+
+ceres::Manifold* HoldManifold(int np, const std::vector<int>& fixed, const std::vector<int>& held) {
+  std::vector<int> all = fixed;
+  all.insert(all.end(), held.begin(), held.end());
+  std::sort(all.begin(), all.end());
+  all.erase(std::unique(all.begin(), all.end()), all.end());
+  return all.empty() ? nullptr : new ceres::SubsetManifold(np, all);
+}
+
+}  // namespace
+
+ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::Problem& problem, double* theta, int np,
+                                  const std::vector<int>& fixed, ceres::Solver::Summary& summary, int hold_after,
+                                  int max_rounds) {
+  ActiveSetSolve out;
+  if (max_rounds <= 0) max_rounds = 2 * np + 2;
+  const size_t n = static_cast<size_t>(np);
+  std::vector<double> lower(n), upper(n);
+  std::vector<bool> movable(n, true), unwatched(n, false);
+  for (int i = 0; i < np; ++i) {
+    lower[static_cast<size_t>(i)] = problem.GetParameterLowerBound(theta, i);
+    upper[static_cast<size_t>(i)] = problem.GetParameterUpperBound(theta, i);
+  }
+  for (int i : fixed) movable[static_cast<size_t>(i)] = false;
+  const size_t n_movable = static_cast<size_t>(std::count(movable.begin(), movable.end(), true));
+  std::vector<int> held;
+  for (;;) {
+    if (out.rounds >= max_rounds) {  // no KKT point in max_rounds: a plain projected solve finishes
+      problem.SetManifold(theta, HoldManifold(np, fixed, {}));
+      held.clear();
+      ceres::Solve(options, &problem, &summary);
+      out.iterations += static_cast<int>(summary.iterations.size());
+      ++out.rounds;
+      out.fallback = true;
+      break;
+    }
+    std::vector<bool> watched = movable;
+    for (int i : held) watched[static_cast<size_t>(i)] = false;
+    for (size_t i = 0; i < n; ++i) watched[i] = watched[i] && !unwatched[i];
+    BoundWatch watch(theta, lower, upper, watched, hold_after);
+    ++out.rounds;
+    if (held.size() < n_movable) {  // else every parameter is held: only the KKT check below
+      ceres::Solver::Options o = options;
+      o.update_state_every_iteration = true;
+      o.callbacks.push_back(&watch);
+      problem.SetManifold(theta, HoldManifold(np, fixed, held));
+      ceres::Solve(o, &problem, &summary);
+      out.iterations += static_cast<int>(summary.iterations.size());
+      if (!summary.IsSolutionUsable()) break;
+    }
+    bool on_bound = false;
+    for (size_t i = 0; i < n; ++i) on_bound = on_bound || (movable[i] && (theta[i] <= lower[i] || theta[i] >= upper[i]));
+    if (!on_bound && held.empty() && !watch.stopped_it()) break;  // an interior solution: Ceres's own
+    // KKT: the gradient and the Gauss-Newton diagonal of every parameter at this point.
+    problem.SetManifold(theta, nullptr);
+    double cost = 0;
+    std::vector<double> gradient;
+    ceres::CRSMatrix jac;
+    ceres::Problem::EvaluateOptions eo;
+    eo.num_threads = options.num_threads;
+    if (!problem.Evaluate(eo, &cost, nullptr, &gradient, &jac) || gradient.size() != n) {
+      out.rounds = max_rounds;  // no gradient: finish as Ceres alone would
+      continue;
+    }
+    std::vector<double> h(n, 0.0);
+    for (size_t k = 0; k < jac.values.size(); ++k) h[static_cast<size_t>(jac.cols[k])] += jac.values[k] * jac.values[k];
+    // Every parameter on a bound is held there unless its gradient points into the box and
+    // freeing it alone would lower the cost by more than the solver's function tolerance.
+    std::vector<int> next;
+    for (size_t i = 0; i < n; ++i) {
+      if (!movable[i] || (theta[i] > lower[i] && theta[i] < upper[i])) continue;
+      const double g = gradient[i];
+      const bool inward = (theta[i] >= upper[i] && g > 0) || (theta[i] <= lower[i] && g < 0);
+      const double gain = h[i] > 0 ? g * g / (2 * h[i]) : 0.0;
+      if (inward && gain > options.function_tolerance * cost) {
+        unwatched[i] = true;  // free from now on (the end of a round may hold it again)
+        if (std::find(held.begin(), held.end(), static_cast<int>(i)) != held.end()) out.released.push_back(static_cast<int>(i));
+      } else {
+        next.push_back(static_cast<int>(i));
+      }
+    }
+    if (!watch.stopped_it() && next == held) break;  // converged in the free parameters; held ones push outward
+    held = next;
+  }
+  out.held = held;
+  problem.SetManifold(theta, HoldManifold(np, fixed, {}));
+  return out;
+}
+
+}  // namespace ndsid::identify
