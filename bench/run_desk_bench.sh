@@ -6,6 +6,8 @@
 # fit) as the baseline beside them. One hidden effect (a 1.5 deg steering offset) gives the
 # ladder a rung to climb. One run each, side by side. Not part of the test suite.
 #   bench/run_desk_bench.sh [HOURS] [SEED]     (WORK_DIR=/tmp/x keeps and reuses the log)
+# With BASELINE=path/to/an/older/ndsid (built from another commit), each command also runs with
+# that binary, right after this build's, on the same log.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="${BUILD_DIR:-${NDSID_BUILD_DIR:-$ROOT/build}}"
@@ -20,11 +22,20 @@ if [[ ! -s "$SIM/drive.log" ]]; then
 fi
 LOG="$SIM/drive.log"
 CFG="$ROOT/config/example_vehicle.yaml"
-run() {  # label, then the ndsid arguments; prints the wall time and the command's first EG line
-  local label=$1; shift
-  /usr/bin/time -f "%e %M" -o "$WORK_DIR/time.txt" "$NDSID" "$@" > "$WORK_DIR/$label.out" 2> "$WORK_DIR/$label.err"
+run1() {  # binary, label, then the ndsid arguments; prints the wall time and peak memory
+  local bin=$1 label=$2; shift 2
+  /usr/bin/time -f "%e %M" -o "$WORK_DIR/time.txt" "$bin" "$@" > "$WORK_DIR/$label.out" 2> "$WORK_DIR/$label.err"
   read -r wall rss < <(tail -1 "$WORK_DIR/time.txt")
   printf '%-26s %7.1f s  (max RSS %d MB)\n' "$label" "$wall" "$((rss / 1024))"
+}
+run() {  # label, then the ndsid arguments (output folders end in the label)
+  local label=$1; shift
+  run1 "$NDSID" "$label" "$@"
+  if [[ -n "${BASELINE:-}" ]]; then
+    local args=("$@")
+    args[-1]="${args[-1]}-baseline"
+    run1 "$BASELINE" "$label-baseline" "${args[@]}"
+  fi
 }
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
 echo "log: $HOURS h simulated (seed $SEED, steer_offset_deg=1.5), $(wc -l < "$LOG") frames"

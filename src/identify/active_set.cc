@@ -55,7 +55,7 @@ ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::
   if (max_rounds <= 0) max_rounds = 2 * np + 2;
   const size_t n = static_cast<size_t>(np);
   std::vector<double> lower(n), upper(n);
-  std::vector<bool> movable(n, true), unwatched(n, false);
+  std::vector<bool> movable(n, true);
   for (int i = 0; i < np; ++i) {
     lower[static_cast<size_t>(i)] = problem.GetParameterLowerBound(theta, i);
     upper[static_cast<size_t>(i)] = problem.GetParameterUpperBound(theta, i);
@@ -75,7 +75,6 @@ ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::
     }
     std::vector<bool> watched = movable;
     for (int i : held) watched[static_cast<size_t>(i)] = false;
-    for (size_t i = 0; i < n; ++i) watched[i] = watched[i] && !unwatched[i];
     BoundWatch watch(theta, lower, upper, watched, hold_after);
     ++out.rounds;
     if (held.size() < n_movable) {  // else every parameter is held: only the KKT check below
@@ -87,9 +86,16 @@ ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::
       out.iterations += static_cast<int>(summary.iterations.size());
       if (!summary.IsSolutionUsable()) break;
     }
-    bool on_bound = false;
-    for (size_t i = 0; i < n; ++i) on_bound = on_bound || (movable[i] && (theta[i] <= lower[i] || theta[i] >= upper[i]));
-    if (!on_bound && held.empty() && !watch.stopped_it()) break;  // an interior solution: Ceres's own
+    std::vector<int> on_bound;
+    for (size_t i = 0; i < n; ++i)
+      if (movable[i] && (theta[i] <= lower[i] || theta[i] >= upper[i])) on_bound.push_back(static_cast<int>(i));
+    if (watch.stopped_it()) {
+      // Stopped on the way: hold every parameter on a bound now. The gradient's sign at a point
+      // not yet converged in the others says little; the check at convergence releases.
+      held = on_bound;
+      continue;
+    }
+    if (on_bound.empty() && held.empty()) break;  // an interior solution: Ceres's own
     // KKT: the gradient and the Gauss-Newton diagonal of every parameter at this point.
     problem.SetManifold(theta, nullptr);
     double cost = 0;
@@ -103,22 +109,27 @@ ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::
     }
     std::vector<double> h(n, 0.0);
     for (size_t k = 0; k < jac.values.size(); ++k) h[static_cast<size_t>(jac.cols[k])] += jac.values[k] * jac.values[k];
-    // Every parameter on a bound is held there unless its gradient points into the box and
-    // freeing it alone would lower the cost by more than the solver's function tolerance.
-    std::vector<int> next;
-    for (size_t i = 0; i < n; ++i) {
-      if (!movable[i] || (theta[i] > lower[i] && theta[i] < upper[i])) continue;
+    // Converged in the free parameters: every parameter on a bound stays held there, except the
+    // one whose gradient points into the box with the largest gain from freeing it alone, if
+    // that gain exceeds the solver's function tolerance (one at a time: freeing several at once
+    // can send them back and forth).
+    int release = -1;
+    double best_gain = options.function_tolerance * cost;
+    for (int j : on_bound) {
+      const size_t i = static_cast<size_t>(j);
       const double g = gradient[i];
       const bool inward = (theta[i] >= upper[i] && g > 0) || (theta[i] <= lower[i] && g < 0);
       const double gain = h[i] > 0 ? g * g / (2 * h[i]) : 0.0;
-      if (inward && gain > options.function_tolerance * cost) {
-        unwatched[i] = true;  // free from now on (the end of a round may hold it again)
-        if (std::find(held.begin(), held.end(), static_cast<int>(i)) != held.end()) out.released.push_back(static_cast<int>(i));
-      } else {
-        next.push_back(static_cast<int>(i));
+      if (inward && gain > best_gain) {
+        best_gain = gain;
+        release = j;
       }
     }
-    if (!watch.stopped_it() && next == held) break;  // converged in the free parameters; held ones push outward
+    std::vector<int> next;
+    for (int j : on_bound)
+      if (j != release) next.push_back(j);
+    if (release >= 0 && std::find(held.begin(), held.end(), release) != held.end()) out.released.push_back(release);
+    if (next == held) break;  // converged in the free parameters; the held ones push outward
     held = next;
   }
   out.held = held;

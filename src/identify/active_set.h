@@ -24,14 +24,17 @@ struct ActiveSetSolve {
 // step is not the step of the remaining parameters: the step's predicted decrease is far from
 // the actual one and the solver crawls (many iterations of small gain), or the projection undoes
 // the step and the solver stops on "parameter tolerance" short of the optimum. Here:
-// - a parameter that stayed on a bound for `hold_after` accepted iterations stops the solve;
-// - at the end of every solve, the gradient of the cost (Ceres's 1/2 sum r^2) is evaluated. Each
-//   parameter on a bound is held there (SubsetManifold) unless its gradient points into the box
-//   and freeing it alone would lower the cost by more than the solver's function tolerance
-//   (g_i^2 / 2 H_ii, H the Gauss-Newton matrix); such a parameter is freed for good from the
-//   watch (a later end of solve may hold it again);
-// - the others are solved again with exact Gauss-Newton steps, until a solve ends by Ceres's own
-//   convergence with the held set unchanged: the KKT conditions of the box.
+// - a parameter that stayed on a bound for `hold_after` accepted iterations stops the solve,
+//   and every parameter then on a bound is held there (SubsetManifold); the others are solved
+//   again with exact Gauss-Newton steps;
+// - when a solve converges (Ceres's own criteria), the gradient of the cost (Ceres's
+//   1/2 sum r^2) is evaluated. Each parameter on a bound stays held unless its gradient points
+//   into the box and freeing it alone would lower the cost by more than the solver's function
+//   tolerance (g_i^2 / 2 H_ii, H the Gauss-Newton matrix); of several such, the one with the
+//   largest gain is released (one at a time, as active-set methods do, so that they do not
+//   go back and forth);
+// - the problem is solved again until the held set no longer changes: the KKT conditions of
+//   the box.
 // After `max_rounds` solves (default 2 np + 2) without that, one plain projected solve finishes.
 //
 // On return the problem's manifold is the SubsetManifold of `fixed` (or none), and `summary` is
