@@ -7,6 +7,11 @@
 namespace ndsid::identify {
 namespace {
 
+// theta_i on its box's lower or upper bound (Ceres clamps a projected step onto it exactly).
+bool OnBound(const double* theta, const std::vector<double>& lower, const std::vector<double>& upper, size_t i) {
+  return theta[i] <= lower[i] || theta[i] >= upper[i];
+}
+
 // Stops the solve once a free parameter has sat on a bound for `hold_after` accepted iterations.
 class BoundWatch final : public ceres::IterationCallback {
  public:
@@ -19,7 +24,7 @@ class BoundWatch final : public ceres::IterationCallback {
     if (s.iteration == 0 || !s.step_is_successful) return ceres::SOLVER_CONTINUE;
     bool stop = false;
     for (size_t i = 0; i < count_.size(); ++i) {
-      count_[i] = movable_[i] && OnBound(i) ? count_[i] + 1 : 0;
+      count_[i] = movable_[i] && OnBound(theta_, lower_, upper_, i) ? count_[i] + 1 : 0;
       stop = stop || count_[i] >= hold_after_;
     }
     return stop ? ceres::SOLVER_TERMINATE_SUCCESSFULLY : ceres::SOLVER_CONTINUE;
@@ -29,7 +34,6 @@ class BoundWatch final : public ceres::IterationCallback {
   }
 
  private:
-  bool OnBound(size_t i) const { return theta_[i] <= lower_[i] || theta_[i] >= upper_[i]; }
   const double* theta_;
   const std::vector<double>& lower_;
   const std::vector<double>& upper_;
@@ -88,7 +92,7 @@ ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::
     }
     std::vector<int> on_bound;
     for (size_t i = 0; i < n; ++i)
-      if (movable[i] && (theta[i] <= lower[i] || theta[i] >= upper[i])) on_bound.push_back(static_cast<int>(i));
+      if (movable[i] && OnBound(theta, lower, upper, i)) on_bound.push_back(static_cast<int>(i));
     if (watch.stopped_it()) {
       // Stopped on the way: hold every parameter on a bound now. The gradient's sign at a point
       // not yet converged in the others says little; the check at convergence releases.

@@ -865,7 +865,6 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // steps crawl there. Returns the iterations of all its rounds.
   auto solve = [&](const ceres::Solver::Options& o, ceres::Problem& pr, ceres::Solver::Summary& s) {
     const ActiveSetSolve a = SolveWithActiveSet(o, pr, theta.data(), np, fixed, s);
-    r.active_set_rounds += a.rounds - 1;
     if (a.rounds > 1)
       spdlog::debug("active set: {} rounds, {} iterations, {} held at the end, {} released{}", a.rounds, a.iterations,
                     a.held.size(), a.released.size(), a.fallback ? ", finished by a plain projected solve" : "");

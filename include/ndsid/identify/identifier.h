@@ -95,7 +95,6 @@ struct IdentificationResult {
   int iterations = 0;         // the solver's iterations on the whole window (every solve)
   int coarse_iterations = 0;  // before them, on the coarse start's subset of chunks (large windows)
   bool coarse_start_used = false;  // its solution was the whole window's start (else the start was better)
-  int active_set_rounds = 0;  // solves restarted with parameters held on, or released from, a bound (docs/incremental.md)
   double solve_seconds = 0;
   std::string termination;
   std::string se_method;  // "cluster-robust (N chunks)" or "autocorrelation-corrected"
