@@ -1,4 +1,5 @@
 #include "ndsid/discover/alignment.h"
+#include "ndsid/discover/diagnosis.h"
 
 #include <spdlog/spdlog.h>
 
@@ -136,6 +137,31 @@ RoleLatency YawRateProfile(const Identifier& two, const std::vector<double>& par
   return out;
 }
 
+// One Gauss-Newton step of the model (effects `names`) and a shift (`effect`, at 0 on `data`)
+// from the fit `params` of `id`: the score test of the shift with every parameter free (the
+// one-step estimate diagnose ranks effects by), the parameters on a bound held as the refit's
+// active set holds them. se_s: its model-based standard error.
+struct ShiftStep {
+  bool valid = false;
+  double step_s = 0, se_s = 0;
+};
+ShiftStep OneStep(const Identifier& id, const std::vector<double>& params, const SegmentList& data,
+                  const std::vector<std::string>& names, const std::string& effect) {
+  Identifier probe(id.config(), id.wheelbase_m(), model::ModelSpec::FromNames(names, id.spec().library()));
+  probe.set_standstill(id.standstill());
+  probe.set_drive_values(id.drive_values());
+  DiagnosisOptions score;
+  score.candidates = {effect};
+  score.hold_on_bound = true;
+  const Diagnosis d = Diagnose(probe, Extend(id.spec(), params, probe.spec()), data, score);
+  ShiftStep out;
+  for (const CandidateScore& c : d.ranked) {
+    if (c.param != effect + "_s" || !(c.se > 0) || !std::isfinite(c.se) || !std::isfinite(c.one_step)) continue;
+    out = {true, c.one_step, c.se};
+  }
+  return out;
+}
+
 // An input (steering: steer_delay; speed: speed_delay): the profile finds the basin, a joint
 // refit of model and shift (the role's delay effect) the estimate and its standard error with
 // every parameter free (a profile with the parameters held underestimates a shift the fit has
@@ -143,9 +169,16 @@ RoleLatency YawRateProfile(const Identifier& two, const std::vector<double>& par
 // `nuisance`: effects fitted along (not in the model yet) that the shift would otherwise stand in
 // for; their values are dropped from `refitted`.
 // `refitted`: the model's parameters from the joint refit (for data aligned by the result).
+// `floor_s`: the smallest latency applied. The joint refit corrects what the held profile misses
+// (a shift the fit partly absorbs); its first Gauss-Newton step from the current fit is the
+// score test of the shift with the parameters free (OneStep). When that step stays below half
+// the floor, and the profile's minimum does too or a second step from the profile's minimum
+// lands within half the floor of the first, only a nonlinearity that moves the refit by more
+// than half the floor from both steps could get the shift applied: the refit is skipped and the
+// first step reported with its standard error (docs/diagnosis.md, "Step 0").
 RoleLatency JointLatency(const Identifier& id, const std::vector<double>& params, const SegmentList& training,
                          Role role, const std::string& effect, const std::vector<std::string>& nuisance,
-                         const AlignmentOptions& o, std::vector<double>& refitted) {
+                         const AlignmentOptions& o, double floor_s, std::vector<double>& refitted) {
   RoleLatency out = InputProfile(id, params, training, role, o);
   for (const auto& e : id.spec().effects()) {
     if (e->info().name == effect) {
@@ -161,8 +194,33 @@ RoleLatency JointLatency(const Identifier& id, const std::vector<double>& params
   for (const std::string& n : nuisance) {
     if (std::find(names.begin(), names.end(), n) == names.end()) names.push_back(n);
   }
-  const Identifier joint(id.config(), id.wheelbase_m(), model::ModelSpec::FromNames(names, id.spec().library()));
   const std::string name = effect + "_s";
+  if (out.determined) {
+    std::vector<std::string> probe_names = names;
+    probe_names.erase(std::find(probe_names.begin(), probe_names.end(), effect));
+    const ShiftStep at_zero = OneStep(id, params, training, probe_names, effect);
+    bool skip = at_zero.valid && std::abs(at_zero.step_s) < 0.5 * floor_s;
+    ShiftStep there;
+    if (skip && std::abs(out.latency_s) >= 0.5 * floor_s) {
+      // The held profile points elsewhere (the fit absorbs part of a shift, or a nuisance effect
+      // fitted along is missing from it): one more step, from the profile's minimum on data
+      // shifted by it. Both steps must land on the same shift.
+      const std::vector<stats::Segment> shifted = ShiftOne(training, role, out.latency_s);
+      there = OneStep(id, params, Pointers(shifted), probe_names, effect);
+      skip = there.valid && std::abs(out.latency_s + there.step_s - at_zero.step_s) < 0.5 * floor_s;
+    }
+    spdlog::debug("alignment: {} profile {:.1f} ms, one-step {:.1f} +- {:.1f} ms{}: joint refit {}", name, 1e3 * out.latency_s,
+                  1e3 * at_zero.step_s, 1e3 * at_zero.se_s,
+                  there.valid ? fmt::format(", from the profile's minimum {:.1f} ms", 1e3 * (out.latency_s + there.step_s)) : "",
+                  skip ? "skipped" : "needed");
+    if (skip) {
+      out.latency_s = at_zero.step_s;
+      out.se_s = at_zero.se_s;
+      out.method = "RSS profile over shifts, then a score test of model and shift (one Gauss-Newton step)";
+      return out;
+    }
+  }
+  const Identifier joint(id.config(), id.wheelbase_m(), model::ModelSpec::FromNames(names, id.spec().library()));
   std::vector<double> warm = Extend(id.spec(), params, joint.spec());
   for (int i = model::kNumParams; i < joint.spec().num_params(); ++i) {
     if (joint.spec().param_name(i) == name) warm[static_cast<size_t>(i)] = std::clamp(out.latency_s, o.min_s, o.max_s);
@@ -247,7 +305,7 @@ std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& two_or_one, con
   // The speed is searched on data aligned for the steering (with the joint fit's parameters):
   // a steering skew left in would pull the speed's shift.
   std::vector<double> refitted;
-  out.push_back(JointLatency(identifier, params, data, Role::kSteeringWheelAngle, "steer_delay", {}, options, refitted));
+  out.push_back(JointLatency(identifier, params, data, Role::kSteeringWheelAngle, "steer_delay", {}, options, floor_s, refitted));
   RoleLatency& steer = out.back();
   decide(steer);
   std::vector<stats::Segment> steer_aligned;
@@ -262,7 +320,7 @@ std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& two_or_one, con
   // a -74 +- 17 ms latency). With a_y alone the offset is not identified and is left out.
   std::vector<double> speed_refitted;
   const std::vector<std::string> speed_nuisance = two ? std::vector<std::string>{"speed_offset"} : std::vector<std::string>{};
-  out.push_back(JointLatency(identifier, *now, data, Role::kSpeed, "speed_delay", speed_nuisance, options, speed_refitted));
+  out.push_back(JointLatency(identifier, *now, data, Role::kSpeed, "speed_delay", speed_nuisance, options, floor_s, speed_refitted));
   decide(out[1]);
   std::vector<stats::Segment> speed_aligned;
   std::vector<double> steer_refitted;
@@ -273,7 +331,7 @@ std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& two_or_one, con
     // A speed latency pulls the steering's shift (a 250 ms one by -14 ms): the steering once more,
     // on the speed-aligned data; the two passes add up.
     const RoleLatency again =
-        JointLatency(identifier, *now, data, Role::kSteeringWheelAngle, "steer_delay", {}, options, steer_refitted);
+        JointLatency(identifier, *now, data, Role::kSteeringWheelAngle, "steer_delay", {}, options, floor_s, steer_refitted);
     if (again.determined) {
       const double before = out[0].apply ? out[0].latency_s : 0.0;
       out[0].latency_s = before + again.latency_s;

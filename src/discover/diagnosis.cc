@@ -195,6 +195,12 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
     const model::EffectParam* ep = big.effect_param(i);
     if (in_current) {
       if (ep && ep->pinned_at_reference()) continue;  // held at neutral on the reference drive
+      if (options.hold_on_bound) {  // the identifier's at_bound test
+        const double lo = is_base ? identifier.config().params[i].lower : ep->lower;
+        const double hi = is_base ? identifier.config().params[i].upper : ep->upper;
+        const double v = x[static_cast<size_t>(i)];
+        if (v <= lo + 1e-6 * (hi - lo) || v >= hi - 1e-6 * (hi - lo)) continue;
+      }
       if (!(is_base && identifier.config().params[i].fixed)) fitted.push_back(i);
     } else if (ep && ep->per_drive) {
       per_drive_cols.push_back(i);  // scored per drive (PerDriveScore)
@@ -235,6 +241,7 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(np, np);  // A'A
   Eigen::VectorXd Ae = Eigen::VectorXd::Zero(np);     // A'e
   std::vector<Eigen::VectorXd> chunk_Ae;
+  std::vector<Eigen::MatrixXd> chunk_M;  // per chunk A'A (the sandwich of the one-step's standard error)
   std::vector<std::vector<double>> chunk_residuals;
   double rss = 0;
   size_t n = 0;
@@ -289,7 +296,8 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
     for (size_t k = 0; k < n_rows_a; ++k) rss_sig += e[k] * e[k];
     Eigen::Map<const RowMajor> A(jac.data(), m, np);
     Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
-    M += A.transpose() * A;
+    chunk_M.push_back(A.transpose() * A);
+    M += chunk_M.back();
     for (PerDriveScore& pds : per_drive_scores) pds.Add(c.drive_id, A, ev);
     const Eigen::VectorXd ae = A.transpose() * ev;
     Ae += ae;
@@ -329,10 +337,11 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
   // about 1 however clear the evidence (a hidden 0.4 deg/s gyro offset read z -1.1 that way).
   std::vector<Eigen::VectorXd> evidence_rows;
   double evidence_w = 0;
+  const double noise_level = ResidualNoiseLevel(chunk_residuals);  // sigma^2 tau of the residuals as scored
   {
     std::set<int64_t> drives;
     for (const Chunk& c : chunks) drives.insert(c.drive_id);
-    const double w = ResidualNoiseLevel(chunk_residuals);
+    const double w = noise_level;
     for (const Identifier::StandstillPrior& sp : identifier.StandstillPriors(drives)) {
       int col = -1;
       for (int i = model::kNumParams; i < np; ++i)
@@ -383,18 +392,33 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
       s.one_step = ep->neutral - zte / ztz;
     }
     s.rmse_predicted = std::sqrt(std::max(0.0, rss - s.drss) / static_cast<double>(n));
-    double var = 0;
-    for (const auto& ae : chunk_Ae) {
-      double sc = ae[col];
-      for (int f = 0; f < nf; ++f) sc -= B(f, a) * ae[fitted[f]];
+    // The projected column z = e_col - sum_f B(f,a) e_fitted: per chunk, its score z'A'e and its
+    // information z'A'Az.
+    Eigen::VectorXd z = Eigen::VectorXd::Zero(np);
+    z[col] = 1.0;
+    for (int f = 0; f < nf; ++f) z[fitted[f]] -= B(f, a);
+    double var = 0, var_at_estimate = 0;
+    for (size_t k = 0; k < chunk_Ae.size(); ++k) {
+      const double sc = z.dot(chunk_Ae[k]);
       var += sc * sc;
+      if (ztz > 0) {  // at the one-step estimate: the chunks' scores sum to zero
+        const double at = sc - z.dot(chunk_M[k] * z) * zte / ztz;
+        var_at_estimate += at * at;
+      }
     }
+    double var_evidence = 0;
     for (const auto& row : evidence_rows) {
-      double sc = row[col];
-      for (int f = 0; f < nf; ++f) sc -= B(f, a) * row[fitted[f]];
-      var += evidence_w * sc * sc;
+      const double sc = z.dot(row);
+      var_evidence += evidence_w * sc * sc;
     }
-    s.z_robust = var > 0 ? zte / std::sqrt(var) : 0.0;
+    s.z_robust = var + var_evidence > 0 ? zte / std::sqrt(var + var_evidence) : 0.0;
+    // The one-step's standard error, as the fit's covariance: model-based, or the cluster sandwich
+    // at the estimate where that is larger.
+    const double g = static_cast<double>(chunk_Ae.size());
+    if (s.drss > 0 && noise_level > 0 && std::isfinite(noise_level) && g > 1) {
+      const double sandwich = var_at_estimate * g / (g - 1) + var_evidence;
+      s.se = std::max(std::sqrt(noise_level / ztz), std::sqrt(sandwich) / ztz);
+    }
     s.significant = std::abs(s.z_robust) > options.z_threshold;
     // What it trades with: fitted parameters carrying most of its sensitivity, and candidates
     // whose projected sensitivities are nearly parallel to its own.
@@ -540,7 +564,9 @@ Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheel
   std::vector<std::string> effects = start_effects;
   Identifier current(config, wheelbase_m, model::ModelSpec::FromNames(effects, library));
   current.set_standstill(options.standstill);
-  IdentificationResult fit = current.Identify(training_in, validation_in, std::optional<std::vector<double>>{});
+  const bool given = options.start_fit && options.start_fit->valid && options.start_fit->model == current.spec().Describe();
+  IdentificationResult fit =
+      given ? *options.start_fit : current.Identify(training_in, validation_in, std::optional<std::vector<double>>{});
   current.set_drive_values(fit.drive_values);
   if (!fit.valid) {
     ladder.rungs.push_back({current.spec().Describe(), "", fit, 0.0});

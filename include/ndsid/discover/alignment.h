@@ -3,7 +3,9 @@
 // left in the data (10-150 ms of gateway latency is common) masquerades as a lag effect.
 //   steering: profile of the model's RSS over shifts of the steering (parameters held), then a
 //             joint refit of the model and the shift (the steer_delay term), which gives the
-//             standard error with the parameters free;
+//             standard error with the parameters free (skipped when its first Gauss-Newton
+//             step, the shift's score test, shows the shift below half the floor below: that
+//             step and its standard error are reported instead; alignment.cc, JointLatency);
 //   speed:    the same on the steering-aligned data, the joint refit with the speed_delay term;
 //             when the speed's latency is applied, the steering once more on the speed-aligned
 //             data (a 250 ms speed latency pulled the steering's shift by -14 ms), the two passes

@@ -6,6 +6,7 @@
 // The best candidates are then confirmed by refitting, one rung of the error ladder at a time.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,10 @@ struct CandidateScore {
   std::string param;
   std::string unit;
   double one_step = 0;        // Gauss-Newton estimate of the parameter from the current fit
+  // Its standard error: the larger of the model-based sqrt(sigma^2 tau / I) and the
+  // cluster-robust sqrt(V) / I (I the projected information, V the score's variance over chunks),
+  // as the fit's covariance takes the larger.
+  double se = 0;
   double drss = 0;            // predicted drop of the residual sum of squares
   double rmse_predicted = 0;  // RMSE if that drop were realised
   double uniqueness = 0;      // |z~|^2 / |z|^2: the part the current parameters cannot absorb
@@ -52,6 +57,10 @@ struct Diagnosis {
 struct DiagnosisOptions {
   std::vector<std::string> candidates;  // empty: every library effect not yet in the model
   double z_threshold = 3.0;             // significance filter on the robust score statistic
+  // A fitted parameter on its bound is held in the projection (the active set at the fit: a
+  // refit keeps it there unless its gradient turns inward). Off: every fitted parameter is
+  // projected against, as the ranking has always done.
+  bool hold_on_bound = false;
 };
 
 // The fitted parameters `params` (full vector of `identifier.spec()`) over `segments`.
@@ -109,6 +118,10 @@ struct LadderOptions {
   // After the ladder stops, an output whose held-out RMSE is more than this times its noise
   // floor (the white part of its residual) is reported unexplained (OutputVerdict).
   double unexplained_ratio = 1.5;
+  // A valid fit of the starting model on these very training and held-out segments (the
+  // pipeline's own after a replay, as `ndsid diagnose` has it): the ladder starts from it instead
+  // of fitting the same model again. Ignored when it is not valid or describes another model.
+  std::optional<identify::IdentificationResult> start_fit;
 };
 
 // After the ladder: one output's held-out residual against its noise floor. The floor is the
