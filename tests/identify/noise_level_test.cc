@@ -62,6 +62,24 @@ TEST(NoiseLevel, LazyAutocorrelationTimeEqualsTheFullSums) {
   EXPECT_EQ(ResidualNoiseLevel({{}, {}}, 2), 0.0);
 }
 
+// Catches: lag sums that differ from their definition, sum_k e_k e_(k-lag) added in the order
+// k = lag, lag + 1, ... (the persisted chunks' sums and a new build's must agree bit for bit), or
+// that miss the lags of a series shorter than kAcfMaxLag. Bit-exact comparison.
+TEST(NoiseLevel, LagSumsAreTheirDefinitionBitForBit) {
+  for (const double phi : {0.0, 0.9, 0.999}) {
+    for (const auto& e : Ar1Series(phi, 5)) {
+      std::vector<double> acf;
+      AddAutocorrelationSums(e, acf);
+      ASSERT_EQ(acf.size(), kAcfMaxLag + 1);
+      for (size_t lag = 0; lag <= kAcfMaxLag; ++lag) {
+        double s = 0;
+        for (size_t k = lag; k < e.size(); ++k) s += e[k] * e[k - lag];
+        ASSERT_EQ(acf[lag], s) << "lag " << lag << " of a series of " << e.size();
+      }
+    }
+  }
+}
+
 // Catches: a pass over the chunks (output weights, the priors' weight, J'J and scores at the
 // optimum, the noise levels) whose sums depend on the thread count or miss a chunk. Two outputs
 // with road_bank and gyro_offset, fitted on 1 and on 2 threads.
