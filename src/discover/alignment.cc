@@ -140,7 +140,8 @@ RoleLatency YawRateProfile(const Identifier& two, const std::vector<double>& par
 // One Gauss-Newton step of the model (effects `names`) and a shift (`effect`, at 0 on `data`)
 // from the fit `params` of `id`: the score test of the shift with every parameter free (the
 // one-step estimate diagnose ranks effects by), the parameters on a bound held as the refit's
-// active set holds them. se_s: its model-based standard error.
+// active set holds them. se_s: its standard error (CandidateScore::se: model-based, or the
+// cluster sandwich at the step where larger).
 struct ShiftStep {
   bool valid = false;
   double step_s = 0, se_s = 0;
@@ -175,7 +176,7 @@ ShiftStep OneStep(const Identifier& id, const std::vector<double>& params, const
 // the floor, and the profile's minimum does too or a second step from the profile's minimum
 // lands within half the floor of the first, only a nonlinearity that moves the refit by more
 // than half the floor from both steps could get the shift applied: the refit is skipped and the
-// first step reported with its standard error (docs/diagnosis.md, "Step 0").
+// first step reported with its standard error (docs/model-workflow.md, step 0).
 RoleLatency JointLatency(const Identifier& id, const std::vector<double>& params, const SegmentList& training,
                          Role role, const std::string& effect, const std::vector<std::string>& nuisance,
                          const AlignmentOptions& o, double floor_s, std::vector<double>& refitted) {
