@@ -641,13 +641,20 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     const Eigen::Map<const Eigen::VectorXd> x(at.data(), np);
     for (size_t i = 0; i < from_prior.size(); ++i) {
       double worst = 0, step = 0;
+      int most = 0;  // the parameter whose own move (in its marginal sigma) is largest, for the log
+      double most_sigma = 0;
       for (const LinearizedChunk& c : from_prior[i].lin->chunks) {
         const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
         worst = std::max(worst, d.dot(h * d) / level);
         step = std::max(step, d.lpNorm<Eigen::Infinity>());
+        for (int k = 0; k < np; ++k) {
+          const double sk = std::abs(d[k]) * std::sqrt(std::max(0.0, h(k, k)) / level);
+          if (sk > most_sigma) most_sigma = sk, most = k;
+        }
       }
       if (!(worst <= update->relinearize_sigma * update->relinearize_sigma) || !(step <= kRelinearizeStep)) {
-        spdlog::debug("incremental: prior segment {} stale ({:.3g} sigma, step {:.3g})", i, std::sqrt(worst), step);
+        spdlog::debug("incremental: prior segment {} stale ({:.3g} sigma, step {:.3g}; largest single move {})", i, std::sqrt(worst),
+                      step, spec_.param_name(most));
         out.push_back(i);
       }
     }
