@@ -106,11 +106,16 @@ void HoldOutDrives(ReplayedData& data, const std::vector<int64_t>& drives) {
   data.custom_split = true;
 }
 
+std::optional<identify::IdentificationResult> ReplayedFit(const ReplayedData& data, const std::vector<std::string>& effects) {
+  const auto& last = data.pipeline->last_estimate();
+  if (data.custom_split || effects != data.config.model_effects || !last || !last->fit.valid) return std::nullopt;
+  return last->fit;
+}
+
 FittedModel FitModel(const ReplayedData& data, const std::string& label, const std::vector<std::string>& effects) {
   FittedModel m{label, effects, {}};
-  const auto& last = data.pipeline->last_estimate();
-  if (!data.custom_split && effects == data.config.model_effects && last && last->fit.valid) {
-    m.fit = last->fit;  // the pipeline just fitted this very model on this window
+  if (auto fit = ReplayedFit(data, effects)) {
+    m.fit = std::move(*fit);  // the pipeline just fitted this very model on this window
     return m;
   }
   identify::Identifier id(data.config.identification, data.config.vehicle.wheelbase_m,

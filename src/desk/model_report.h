@@ -49,6 +49,9 @@ struct FittedModel {
   identify::IdentificationResult fit;
 };
 FittedModel FitModel(const ReplayedData& data, const std::string& label, const std::vector<std::string>& effects);
+// The pipeline's own valid fit of `effects` on the window's split, when it has one (no custom
+// split, the pipeline's model): FitModel takes it, diagnose starts its ladder from it.
+std::optional<identify::IdentificationResult> ReplayedFit(const ReplayedData& data, const std::vector<std::string>& effects);
 
 // One 50 Hz window sample (a chunk sample of the fit), with every model's output.
 struct SampleRow {

@@ -195,12 +195,10 @@ Diagnosis Diagnose(const Identifier& identifier, const std::vector<double>& para
     const model::EffectParam* ep = big.effect_param(i);
     if (in_current) {
       if (ep && ep->pinned_at_reference()) continue;  // held at neutral on the reference drive
-      if (options.hold_on_bound) {  // the identifier's at_bound test
-        const double lo = is_base ? identifier.config().params[i].lower : ep->lower;
-        const double hi = is_base ? identifier.config().params[i].upper : ep->upper;
-        const double v = x[static_cast<size_t>(i)];
-        if (v <= lo + 1e-6 * (hi - lo) || v >= hi - 1e-6 * (hi - lo)) continue;
-      }
+      if (options.hold_on_bound &&
+          AtBound(x[static_cast<size_t>(i)], is_base ? identifier.config().params[i].lower : ep->lower,
+                  is_base ? identifier.config().params[i].upper : ep->upper))
+        continue;
       if (!(is_base && identifier.config().params[i].fixed)) fitted.push_back(i);
     } else if (ep && ep->per_drive) {
       per_drive_cols.push_back(i);  // scored per drive (PerDriveScore)

@@ -641,20 +641,20 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     const Eigen::Map<const Eigen::VectorXd> x(at.data(), np);
     for (size_t i = 0; i < from_prior.size(); ++i) {
       double worst = 0, step = 0;
-      int most = 0;  // the parameter whose own move (in its marginal sigma) is largest, for the log
-      double most_sigma = 0;
+      Eigen::VectorXd worst_d;  // the move from the worst chunk's linearisation point
       for (const LinearizedChunk& c : from_prior[i].lin->chunks) {
         const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
-        worst = std::max(worst, d.dot(h * d) / level);
+        const double m = d.dot(h * d) / level;
+        if (worst_d.size() == 0 || m > worst) worst_d = d;
+        worst = std::max(worst, m);
         step = std::max(step, d.lpNorm<Eigen::Infinity>());
-        for (int k = 0; k < np; ++k) {
-          const double sk = std::abs(d[k]) * std::sqrt(std::max(0.0, h(k, k)) / level);
-          if (sk > most_sigma) most_sigma = sk, most = k;
-        }
       }
       if (!(worst <= update->relinearize_sigma * update->relinearize_sigma) || !(step <= kRelinearizeStep)) {
+        // For the log: the parameter whose own move (in its marginal sigma) is the largest.
+        Eigen::Index most = 0;
+        (worst_d.cwiseAbs().array() * h.diagonal().cwiseMax(0.0).array().sqrt()).maxCoeff(&most);
         spdlog::debug("incremental: prior segment {} stale ({:.3g} sigma, step {:.3g}; largest single move {})", i, std::sqrt(worst),
-                      step, spec_.param_name(most));
+                      step, spec_.param_name(static_cast<int>(most)));
         out.push_back(i);
       }
     }
@@ -1207,8 +1207,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     pe.unit = spec_.param_unit(i);
     pe.value = theta[i] * scale[i];
     pe.fixed = bounds[i].fixed;
-    const double lo = bounds[i].lower, hi = bounds[i].upper;
-    pe.at_bound = !pe.fixed && (pe.value <= lo + 1e-6 * (hi - lo) || pe.value >= hi - 1e-6 * (hi - lo));
+    pe.at_bound = !pe.fixed && AtBound(pe.value, bounds[i].lower, bounds[i].upper);
     for (int a = 0; a < nf; ++a) {
       if (free[a] == i) pe.se = std::sqrt(std::max(0.0, cov(a, a))) * scale[i];
     }

@@ -22,9 +22,9 @@ struct CandidateScore {
   std::string param;
   std::string unit;
   double one_step = 0;        // Gauss-Newton estimate of the parameter from the current fit
-  // Its standard error: the larger of the model-based sqrt(sigma^2 tau / I) and the
-  // cluster-robust sqrt(V) / I (I the projected information, V the score's variance over chunks),
-  // as the fit's covariance takes the larger.
+  // Its standard error: the larger of the model-based sqrt(sigma^2 tau / I) and the cluster
+  // sandwich sqrt(V) / I (I the projected information, V the variance over chunks of their scores
+  // at the one-step estimate), as the fit's covariance takes the larger. 0 where not computed.
   double se = 0;
   double drss = 0;            // predicted drop of the residual sum of squares
   double rmse_predicted = 0;  // RMSE if that drop were realised

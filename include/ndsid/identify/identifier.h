@@ -31,8 +31,13 @@ struct ParameterEstimate {
   double value = 0;
   double se = 0;          // standard error (0 when fixed)
   bool fixed = false;
-  bool at_bound = false;  // ended on the box: the data push it outside the prior box
+  bool at_bound = false;  // ended on the box: the data push it outside the prior box (AtBound)
 };
+
+// A value on its box [lower, upper], within 1e-6 of the box's width: what at_bound reports.
+inline bool AtBound(double value, double lower, double upper) {
+  return value <= lower + 1e-6 * (upper - lower) || value >= upper - 1e-6 * (upper - lower);
+}
 
 struct WeakDirection {
   double singular_value_ratio = 0;  // relative to the largest (scaled Jacobian)

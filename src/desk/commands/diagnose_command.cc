@@ -113,9 +113,7 @@ int Run(const DiagnoseArgs& a) {
   opt.align = !a.no_align;
   opt.standstill = data->window.standstill;
   opt.speed_scale_evidence = stats::EstimateSpeedScale(data->window.training);
-  // The replay's own fit of the starting model on this split (as compare's FitModel takes it).
-  const auto& last = data->pipeline->last_estimate();
-  if (!data->custom_split && last) opt.start_fit = last->fit;
+  opt.start_fit = ReplayedFit(*data, start);  // the replay's own fit of the starting model
   spdlog::info("{}", opt.speed_scale_evidence.note);
   const discover::Ladder ladder = discover::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
                                                              start, data->pipeline->library(), data->window.training,
