@@ -16,18 +16,53 @@ namespace {
 // The lags one series contributes to: 0 .. min(kAcfMaxLag, n - 1) (lag 0 also when empty).
 size_t LastLag(const std::vector<double>& e) { return std::min(kAcfMaxLag, e.empty() ? 0 : e.size() - 1); }
 
-// sum_k e_k e_(k-lag): the one definition of a lag's sum, so pooled and per-chunk sums agree.
-double LagSum(const std::vector<double>& e, size_t lag) {
-  double s = 0;
-  for (size_t k = lag; k < e.size(); ++k) s += e[k] * e[k - lag];
-  return s;
+// sum_k e_k e_(k-lag) for lag in [first, last] (last <= LastLag(e)), written to out[lag - first]:
+// the one definition of a lag's sum, so pooled and per-chunk sums agree. Each lag's products are
+// added in increasing k, one running sum per lag; four lags share a pass over e, so their four
+// sums are independent chains the processor overlaps (a single sum waits on each addition), and
+// every sum is bit for bit that of the plain loop `for k = lag..n-1: s += e[k] * e[k - lag]`.
+// (Eight lags per pass measured slower at -O2: the sums no longer stay in registers.)
+void LagSums(const std::vector<double>& e, size_t first, size_t last, double* out) {
+  const size_t n = e.size();
+  const double* x = e.data();
+  size_t lag = first;
+  for (; lag + 3 <= last; lag += 4) {
+    double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+    // k < lag + 3: only the lags whose first product has come (each starts at k = its lag;
+    // lag + 3 <= last < n, so these samples exist).
+    s0 += x[lag] * x[0];
+    s0 += x[lag + 1] * x[1];
+    s1 += x[lag + 1] * x[0];
+    s0 += x[lag + 2] * x[2];
+    s1 += x[lag + 2] * x[1];
+    s2 += x[lag + 2] * x[0];
+    for (size_t k = lag + 3; k < n; ++k) {
+      const double v = x[k];
+      s0 += v * x[k - lag];
+      s1 += v * x[k - lag - 1];
+      s2 += v * x[k - lag - 2];
+      s3 += v * x[k - lag - 3];
+    }
+    out[lag - first] = s0;
+    out[lag + 1 - first] = s1;
+    out[lag + 2 - first] = s2;
+    out[lag + 3 - first] = s3;
+  }
+  for (; lag <= last; ++lag) {
+    double s = 0;
+    for (size_t k = lag; k < n; ++k) s += x[k] * x[k - lag];
+    out[lag - first] = s;
+  }
 }
 
 }  // namespace
 
 void AddAutocorrelationSums(const std::vector<double>& e, std::vector<double>& acf) {
   acf.resize(kAcfMaxLag + 1, 0.0);
-  for (size_t lag = 0; lag <= LastLag(e); ++lag) acf[lag] += LagSum(e, lag);
+  double sums[kAcfMaxLag + 1];
+  const size_t last = LastLag(e);
+  LagSums(e, 0, last, sums);
+  for (size_t lag = 0; lag <= last; ++lag) acf[lag] += sums[lag];
 }
 
 double AutocorrelationTimeFromSums(const std::vector<double>& acf) {
@@ -51,7 +86,8 @@ void PooledAutocorrelationSums(const std::vector<std::vector<double>>& series, s
   const size_t width = last - first;
   std::vector<double> sums(series.size() * width, 0.0);
   ParallelFor(series.size(), threads, [&](size_t i) {
-    for (size_t lag = first; lag < last && lag <= LastLag(series[i]); ++lag) sums[i * width + lag - first] = LagSum(series[i], lag);
+    const size_t top = std::min(last - 1, LastLag(series[i]));
+    if (top >= first) LagSums(series[i], first, top, &sums[i * width]);
   });
   acf.resize(last, 0.0);
   for (size_t i = 0; i < series.size(); ++i)

@@ -66,8 +66,16 @@ TEST(NoiseLevel, LazyAutocorrelationTimeEqualsTheFullSums) {
 // k = lag, lag + 1, ... (the persisted chunks' sums and a new build's must agree bit for bit), or
 // that miss the lags of a series shorter than kAcfMaxLag. Bit-exact comparison.
 TEST(NoiseLevel, LagSumsAreTheirDefinitionBitForBit) {
-  for (const double phi : {0.0, 0.9, 0.999}) {
-    for (const auto& e : Ar1Series(phi, 5)) {
+  // Also every length around the four-lag groups' edges (lags summed four at a time from the
+  // first: src/identify/chunks.cc): 1..9 samples and around the last lag, 250.
+  std::vector<std::vector<double>> edges;
+  for (const size_t n : {1, 2, 3, 4, 5, 6, 7, 8, 9, 248, 249, 250, 251, 252, 253, 254, 255}) {
+    std::vector<double> e(n);
+    for (size_t k = 0; k < n; ++k) e[k] = std::sin(0.37 * static_cast<double>(k * k + 1));
+    edges.push_back(std::move(e));
+  }
+  for (const double phi : {0.0, 0.9, 0.999, -1.0}) {
+    for (const auto& e : phi < 0 ? edges : Ar1Series(phi, 5)) {
       std::vector<double> acf;
       AddAutocorrelationSums(e, acf);
       ASSERT_EQ(acf.size(), kAcfMaxLag + 1);
