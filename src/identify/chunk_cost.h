@@ -67,7 +67,10 @@ class ChunkResidual {
   bool yaw_;
 };
 
-using ChunkCost = ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kJetSize>;
+// A chunk's cost with its Jacobian by automatic differentiation: in one pass of the narrower
+// SmallJet for a model of at most model::kSmallJetSize parameters, else in passes of model::Jet
+// (effect.h).
+using ChunkCost = ceres::DynamicCostFunction;
 
 // weights: nullptr = a_y alone with weight 1 (the single-output fit, unchanged).
 inline std::unique_ptr<ChunkCost> MakeChunkCost(const Chunk& c, size_t burn, double l, const model::ModelSpec& spec,
@@ -75,9 +78,15 @@ inline std::unique_ptr<ChunkCost> MakeChunkCost(const Chunk& c, size_t burn, dou
                                                 std::shared_ptr<const OutputWeights> weights = nullptr) {
   if (!weights) weights = std::make_shared<const OutputWeights>();
   auto* functor = new ChunkResidual(c, burn, l, spec, scale, std::move(weights));
-  auto cost = std::make_unique<ChunkCost>(functor);
+  const int m = static_cast<int>(functor->num_residuals());
+  std::unique_ptr<ChunkCost> cost;
+  if (scale.size() <= static_cast<size_t>(model::kSmallJetSize)) {
+    cost = std::make_unique<ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kSmallJetSize>>(functor);
+  } else {
+    cost = std::make_unique<ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kJetSize>>(functor);
+  }
   cost->AddParameterBlock(static_cast<int>(scale.size()));
-  cost->SetNumResiduals(static_cast<int>(functor->num_residuals()));
+  cost->SetNumResiduals(m);
   return cost;
 }
 

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <string>
+#include <type_traits>
 #include <vector>
 
 #include "chunk_cost.h"
@@ -93,6 +95,76 @@ TEST(CompressedChunkCost, GivesTheSolverTheChunksCostGradientAndGaussNewtonMatri
         ExpectSame(EvaluateFull(*full, theta), EvaluateFull(comp, theta), where + " (new weights)");
         for (double& x : theta) x *= 1.0 + jitter(rng);  // other parameters
       }
+    }
+  }
+}
+
+
+// Catches: a Jet width whose derivatives differ from the other's, an effect term missing or wrong
+// for one of them (effect.h declares each term for double, Jet and SmallJet), a model that the
+// cost builds on the wrong width. The fit computes a model of at most kSmallJetSize parameters on
+// SmallJet (one pass) and every other on Jet: both must give the same residuals and Jacobian,
+// bit for bit. Every built-in effect on its own, the road_bank + gyro_offset model of the
+// example, and all effects together (SmallJet then in two passes), at perturbed parameters.
+TEST(ChunkCost, SmallJetGivesTheWideJetsResidualsAndJacobianBitForBit) {
+  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset"});
+  std::vector<double> truth = t::TruthVector();
+  truth.push_back(0.0);
+  truth.push_back(0.3 * M_PI / 180.0);
+  const auto segs = t::SyntheticTwoOutputSegments(truth_spec, truth, 2, 40, 0.05, 0.1 * M_PI / 180.0, 7, 0.2);
+  const std::vector<Chunk> chunks = MakeChunks(t::Pointers(segs), 20.0, 1.5);
+  ASSERT_GE(chunks.size(), 2u);
+  std::vector<std::vector<std::string>> models = {{}, {"road_bank", "gyro_offset"}};
+  std::vector<std::string> all;
+  for (const std::string& name : model::BuiltinEffectNames()) {
+    models.push_back({name});
+    if (name != "gyro_offset_per_drive") all.push_back(name);  // it shares gyro_offset's parameter
+  }
+  models.push_back(all);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  for (const auto& names : models) {
+    const model::ModelSpec spec = model::ModelSpec::FromNames(names);
+    const int np = spec.num_params();
+    std::vector<double> scale = t::TruthVector(), theta(static_cast<size_t>(np), 1.0);
+    for (int i = model::kNumParams; i < np; ++i) scale.push_back(0.5 * (spec.effect_param(i)->upper - spec.effect_param(i)->lower));
+    for (int i = model::kNumParams; i < np; ++i) {
+      const model::EffectParam& e = *spec.effect_param(i);
+      theta[static_cast<size_t>(i)] = (e.initial + 0.1 * (e.upper - e.lower)) / scale[static_cast<size_t>(i)];
+    }
+    for (double& x : theta) x *= 1.0 + u(rng);
+    const std::string where = spec.Describe() + " (" + std::to_string(np) + " parameters)";
+    for (const Chunk& c : chunks) {
+      auto weights = std::make_shared<const OutputWeights>(OutputWeights{1.0, 1.0});
+      auto make = [&](auto stride) {
+        using Cost = ceres::DynamicAutoDiffCostFunction<ChunkResidual, decltype(stride)::value>;
+        auto cost = std::make_unique<Cost>(new ChunkResidual(c, BurnInSamples(c, 1.5), t::kWheelbase, spec, scale, weights));
+        cost->AddParameterBlock(np);
+        cost->SetNumResiduals(static_cast<int>(ChunkResidual(c, BurnInSamples(c, 1.5), t::kWheelbase, spec, scale, weights).num_residuals()));
+        return cost;
+      };
+      const auto small = make(std::integral_constant<int, model::kSmallJetSize>{});
+      const auto wide = make(std::integral_constant<int, model::kJetSize>{});
+      const int m = wide->num_residuals();
+      ASSERT_GT(m, 0) << where;
+      std::vector<double> rs(static_cast<size_t>(m)), rw(rs.size()), js(rs.size() * np), jw(js.size());
+      const double* p[] = {theta.data()};
+      double* jsp[] = {js.data()};
+      double* jwp[] = {jw.data()};
+      ASSERT_TRUE(small->Evaluate(p, rs.data(), jsp)) << where;
+      ASSERT_TRUE(wide->Evaluate(p, rw.data(), jwp)) << where;
+      for (size_t k = 0; k < rs.size(); ++k) ASSERT_EQ(rs[k], rw[k]) << where << " residual " << k;
+      size_t nonzero = 0;
+      for (size_t k = 0; k < js.size(); ++k) {
+        ASSERT_EQ(js[k], jw[k]) << where << " Jacobian element " << k;
+        nonzero += js[k] != 0.0 ? 1 : 0;
+      }
+      EXPECT_GT(nonzero, js.size() / 4) << where;  // the derivatives were computed, not left at 0
+      // The cost the identifier builds takes the narrower Jet exactly when the model fits in it.
+      const auto built = MakeChunkCost(c, BurnInSamples(c, 1.5), t::kWheelbase, spec, scale, weights);
+      using SmallCost = ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kSmallJetSize>;
+      const bool built_small = dynamic_cast<const SmallCost*>(built.get()) != nullptr;
+      EXPECT_EQ(built_small, np <= model::kSmallJetSize) << where;
     }
   }
 }

@@ -19,8 +19,15 @@
 
 namespace ndsid::model {
 
+// Autodiff Jets. The fit computes a chunk's derivatives a Jet's width at a time (Ceres'
+// DynamicAutoDiffCostFunction stride): a model of at most kSmallJetSize parameters (the base six
+// and up to two effect parameters) in one pass of the narrower SmallJet, every other model in
+// passes of Jet. Each Jet operation costs in proportion to the width, and both give the same
+// derivatives (each direction is computed on its own).
 inline constexpr int kJetSize = 10;  // base 6 + up to 4 effect parameters per autodiff pass
+inline constexpr int kSmallJetSize = 8;
 using Jet = ceres::Jet<double, kJetSize>;
+using SmallJet = ceres::Jet<double, kSmallJetSize>;
 
 inline double ScalarOf(double v) { return v; }
 template <int N>
@@ -137,39 +144,36 @@ struct MeasurementContext {
   T speed_mps;
 };
 
+// The terms of an effect for one scalar type T (double, Jet, SmallJet): declared pure in Effect,
+// forwarded to the templates in EffectImpl.
+#define NDSID_EFFECT_TERMS(T)                                                                          \
+  virtual void Inputs(const T* eta, const InputSeries& s, size_t k, ModelInputs<T>& u) const = 0;           \
+  virtual void Forces(const T* eta, const Params<T>& p, double l, const AxleSlip<T>& slip, const State<T>& x, \
+                      const ModelInputs<T>& u, const T* states, ForceTerms<T>& f) const = 0;                  \
+  virtual T Measure(const T* eta, const MeasurementContext<T>& m, const T* states) const = 0;               \
+  virtual T MeasureYawRate(const T* eta, const MeasurementContext<T>& m, const T* states) const = 0;        \
+  virtual void InitStates(const T* eta, const Params<T>& p, double l, const ModelInputs<T>& u, const State<T>& x, \
+                          T a_y, T* states) const = 0;                                                       \
+  virtual void AdvanceStates(const T* eta, const Params<T>& p, double l, const ModelInputs<T>& u0,          \
+                             const ModelInputs<T>& u1, const State<T>& x0, const State<T>& x1, T a_y0, double dt, \
+                             T* states) const = 0;
+
 class Effect {
  public:
   virtual ~Effect() = default;
   virtual const EffectInfo& info() const = 0;
 
-  // Inputs: sample k of the measured series -> modelled inputs (in place; effects in order).
-  virtual void Inputs(const double* eta, const InputSeries& s, size_t k, ModelInputs<double>& u) const = 0;
-  virtual void Inputs(const Jet* eta, const InputSeries& s, size_t k, ModelInputs<Jet>& u) const = 0;
-  // Dynamics: slips are the linear-model slip angles; effect states are held over the step.
-  virtual void Forces(const double* eta, const Params<double>& p, double l, const AxleSlip<double>& slip,
-                      const State<double>& x, const ModelInputs<double>& u, const double* states,
-                      ForceTerms<double>& f) const = 0;
-  virtual void Forces(const Jet* eta, const Params<Jet>& p, double l, const AxleSlip<Jet>& slip,
-                      const State<Jet>& x, const ModelInputs<Jet>& u, const Jet* states,
-                      ForceTerms<Jet>& f) const = 0;
-  // Measurement: returns the term added to the measured a_y.
-  virtual double Measure(const double* eta, const MeasurementContext<double>& m, const double* states) const = 0;
-  virtual Jet Measure(const Jet* eta, const MeasurementContext<Jet>& m, const Jet* states) const = 0;
-  // Yaw-rate measurement: returns the term added to the measured yaw rate r_meas = r + ... (the
-  // second output of a two-output fit; gyro_offset, gyro_scale).
-  virtual double MeasureYawRate(const double* eta, const MeasurementContext<double>& m, const double* states) const = 0;
-  virtual Jet MeasureYawRate(const Jet* eta, const MeasurementContext<Jet>& m, const Jet* states) const = 0;
-  // States: initialise at the first sample, advance by dt after each step.
-  virtual void InitStates(const double* eta, const Params<double>& p, double l, const ModelInputs<double>& u,
-                          const State<double>& x, double a_y, double* states) const = 0;
-  virtual void InitStates(const Jet* eta, const Params<Jet>& p, double l, const ModelInputs<Jet>& u,
-                          const State<Jet>& x, Jet a_y, Jet* states) const = 0;
-  virtual void AdvanceStates(const double* eta, const Params<double>& p, double l, const ModelInputs<double>& u0,
-                             const ModelInputs<double>& u1, const State<double>& x0, const State<double>& x1,
-                             double a_y0, double dt, double* states) const = 0;
-  virtual void AdvanceStates(const Jet* eta, const Params<Jet>& p, double l, const ModelInputs<Jet>& u0,
-                             const ModelInputs<Jet>& u1, const State<Jet>& x0, const State<Jet>& x1, Jet a_y0,
-                             double dt, Jet* states) const = 0;
+  // For each scalar type:
+  // - Inputs: sample k of the measured series -> modelled inputs (in place; effects in order).
+  // - Forces (dynamics): slips are the linear-model slip angles; effect states are held over the step.
+  // - Measure: returns the term added to the measured a_y.
+  // - MeasureYawRate: returns the term added to the measured yaw rate r_meas = r + ... (the
+  //   second output of a two-output fit; gyro_offset, gyro_scale).
+  // - InitStates, AdvanceStates: initialise the effect's states at the first sample, advance them
+  //   by dt after each step.
+  NDSID_EFFECT_TERMS(double)
+  NDSID_EFFECT_TERMS(Jet)
+  NDSID_EFFECT_TERMS(SmallJet)
 };
 
 // CRTP adapter: Derived implements any of the templates below (the defaults do nothing):
@@ -184,50 +188,30 @@ class EffectImpl : public Effect {
  public:
   const EffectInfo& info() const override { return info_; }
 
-  void Inputs(const double* e, const InputSeries& s, size_t k, ModelInputs<double>& u) const override {
-    self().InputsT(e, s, k, u);
+#define NDSID_EFFECT_FORWARD(T)                                                                                \
+  void Inputs(const T* e, const InputSeries& s, size_t k, ModelInputs<T>& u) const override {               \
+    self().InputsT(e, s, k, u);                                                                              \
+  }                                                                                                          \
+  void Forces(const T* e, const Params<T>& p, double l, const AxleSlip<T>& sl, const State<T>& x,             \
+              const ModelInputs<T>& u, const T* st, ForceTerms<T>& f) const override {                        \
+    self().ForcesT(e, p, l, sl, x, u, st, f);                                                                \
+  }                                                                                                          \
+  T Measure(const T* e, const MeasurementContext<T>& m, const T* st) const override { return self().MeasureT(e, m, st); } \
+  T MeasureYawRate(const T* e, const MeasurementContext<T>& m, const T* st) const override {                  \
+    return self().MeasureYawRateT(e, m, st);                                                                 \
+  }                                                                                                          \
+  void InitStates(const T* e, const Params<T>& p, double l, const ModelInputs<T>& u, const State<T>& x, T a_y, \
+                  T* st) const override {                                                                    \
+    self().InitStatesT(e, p, l, u, x, a_y, st);                                                              \
+  }                                                                                                          \
+  void AdvanceStates(const T* e, const Params<T>& p, double l, const ModelInputs<T>& u0, const ModelInputs<T>& u1, \
+                     const State<T>& x0, const State<T>& x1, T a_y0, double dt, T* st) const override {        \
+    self().AdvanceStatesT(e, p, l, u0, u1, x0, x1, a_y0, dt, st);                                            \
   }
-  void Inputs(const Jet* e, const InputSeries& s, size_t k, ModelInputs<Jet>& u) const override {
-    self().InputsT(e, s, k, u);
-  }
-  void Forces(const double* e, const Params<double>& p, double l, const AxleSlip<double>& sl, const State<double>& x,
-              const ModelInputs<double>& u, const double* st, ForceTerms<double>& f) const override {
-    self().ForcesT(e, p, l, sl, x, u, st, f);
-  }
-  void Forces(const Jet* e, const Params<Jet>& p, double l, const AxleSlip<Jet>& sl, const State<Jet>& x,
-              const ModelInputs<Jet>& u, const Jet* st, ForceTerms<Jet>& f) const override {
-    self().ForcesT(e, p, l, sl, x, u, st, f);
-  }
-  double Measure(const double* e, const MeasurementContext<double>& m, const double* st) const override {
-    return self().MeasureT(e, m, st);
-  }
-  Jet Measure(const Jet* e, const MeasurementContext<Jet>& m, const Jet* st) const override {
-    return self().MeasureT(e, m, st);
-  }
-  double MeasureYawRate(const double* e, const MeasurementContext<double>& m, const double* st) const override {
-    return self().MeasureYawRateT(e, m, st);
-  }
-  Jet MeasureYawRate(const Jet* e, const MeasurementContext<Jet>& m, const Jet* st) const override {
-    return self().MeasureYawRateT(e, m, st);
-  }
-  void InitStates(const double* e, const Params<double>& p, double l, const ModelInputs<double>& u,
-                  const State<double>& x, double a_y, double* st) const override {
-    self().InitStatesT(e, p, l, u, x, a_y, st);
-  }
-  void InitStates(const Jet* e, const Params<Jet>& p, double l, const ModelInputs<Jet>& u, const State<Jet>& x,
-                  Jet a_y, Jet* st) const override {
-    self().InitStatesT(e, p, l, u, x, a_y, st);
-  }
-  void AdvanceStates(const double* e, const Params<double>& p, double l, const ModelInputs<double>& u0,
-                     const ModelInputs<double>& u1, const State<double>& x0, const State<double>& x1, double a_y0,
-                     double dt, double* st) const override {
-    self().AdvanceStatesT(e, p, l, u0, u1, x0, x1, a_y0, dt, st);
-  }
-  void AdvanceStates(const Jet* e, const Params<Jet>& p, double l, const ModelInputs<Jet>& u0,
-                     const ModelInputs<Jet>& u1, const State<Jet>& x0, const State<Jet>& x1, Jet a_y0, double dt,
-                     Jet* st) const override {
-    self().AdvanceStatesT(e, p, l, u0, u1, x0, x1, a_y0, dt, st);
-  }
+  NDSID_EFFECT_FORWARD(double)
+  NDSID_EFFECT_FORWARD(Jet)
+  NDSID_EFFECT_FORWARD(SmallJet)
+#undef NDSID_EFFECT_FORWARD
 
   // Defaults: no term.
   template <class T>
@@ -252,6 +236,8 @@ class EffectImpl : public Effect {
   const Derived& self() const { return static_cast<const Derived&>(*this); }
   EffectInfo info_;
 };
+
+#undef NDSID_EFFECT_TERMS
 
 // All built-in effects (src/model/effects/; the table in builtin_effects.cc). Models are built
 // from an EffectLibrary (effect_library.h): the built-ins plus a configuration's formulas.

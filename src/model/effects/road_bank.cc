@@ -52,8 +52,8 @@ class RoadBank final : public EffectImpl<RoadBank> {
     T eg = SelfSteerGradient(p, l);
     if (ScalarOf(eg) < kMinEg_radpmps2) eg = T(kMinEg_radpmps2);
     const T v = u0.speed_mps;
-    const T gain = v * eg / (T(l) + eg * v * v);
-    states[0] += T(dt) * (u0.yaw_rate_meas_radps - x0.r) / (T(kObserverTimeConstant_s) * gain);
+    const T gain = v * eg / (l + eg * v * v);  // constants as doubles: the same values, less work
+    states[0] += (u0.yaw_rate_meas_radps - x0.r) * dt / (gain * kObserverTimeConstant_s);
   }
 };
 
