@@ -1137,6 +1137,11 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   } else {
     r.noise_level_a_y = ResidualNoiseLevel(series_a, config_.threads);
   }
+  if (two_outputs && r.noise_level_a_y > 0 && r.noise_level_yaw_rate > 0) {
+    spdlog::debug("two outputs: fitted with the weight ratio yaw rate / a_y {:.4g}{}; the noise levels at the solution give {:.4g}",
+                  weights->yaw_rate / weights->a_y, prior ? " (the prior's)" : "",
+                  std::sqrt(r.noise_level_a_y / r.noise_level_yaw_rate));
+  }
   if (!std::isfinite(r.rmse_train_mps2)) {
     r.reason = "non-finite residuals at the solution";
     return r;
