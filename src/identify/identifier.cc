@@ -734,6 +734,49 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
   };
   add_costs(0);
+  // With both outputs, the weights of the whole window: the new data's noise level per output at
+  // the start values pooled with the prior's (its chunks' autocorrelation sums, unweighted), as a
+  // full fit sets them from all the data. A prior that keeps each chunk's yaw-rate part is
+  // re-weighted to them exactly (docs/incremental.md); an older one holds its own.
+  std::shared_ptr<const LinearizedWindow> reweighted;
+  if (prior && two_outputs && !from_prior.empty() && prior->Reweightable()) {
+    *weights = {1.0, 1.0};
+    std::vector<std::vector<double>> a, rr;
+    EvaluateSeries(costs, n_a, theta.data(), a, rr, config_.threads);
+    *weights = {prior->weight_a_y, prior->weight_yaw_rate};
+    std::vector<double> acf_a(kAcfMaxLag + 1, 0.0), acf_r(kAcfMaxLag + 1, 0.0);
+    double na = 0, nr = 0;
+    for (const auto& e : a) {
+      AddAutocorrelationSums(e, acf_a);
+      na += static_cast<double>(e.size());
+    }
+    for (const auto& e : rr) {
+      AddAutocorrelationSums(e, acf_r);
+      nr += static_cast<double>(e.size());
+    }
+    const double ua = 1.0 / (prior->weight_a_y * prior->weight_a_y);
+    const double ur = 1.0 / (prior->weight_yaw_rate * prior->weight_yaw_rate);
+    for (const PriorSegment& ps : from_prior) {
+      for (const LinearizedChunk& c : ps.lin->chunks) {
+        for (size_t k = 0; k < c.acf_a_y.size() && k <= kAcfMaxLag; ++k) acf_a[k] += ua * c.acf_a_y[k];
+        for (size_t k = 0; k < c.acf_yaw_rate.size() && k <= kAcfMaxLag; ++k) acf_r[k] += ur * c.acf_yaw_rate[k];
+        na += c.n_a_y;
+        nr += c.n_yaw_rate;
+      }
+    }
+    const double la = LevelOfSums(acf_a, na), lr = LevelOfSums(acf_r, nr);
+    if (la > 0 && lr > 0 && std::isfinite(la) && std::isfinite(lr)) {
+      const double wa = 1.0 / std::sqrt(la), wr = 1.0 / std::sqrt(lr);
+      if (wr / wa != prior->weight_yaw_rate / prior->weight_a_y) {
+        spdlog::debug("incremental: the prior re-weighted from the weight ratio {:.4g} to the whole window's {:.4g}",
+                      prior->weight_yaw_rate / prior->weight_a_y, wr / wa);
+        reweighted = std::make_shared<const LinearizedWindow>(prior->Reweighted(wa, wr));
+        for (PriorSegment& ps : from_prior) ps.lin = &reweighted->segments[static_cast<size_t>(ps.lin - prior->segments.data())];
+        prior = reweighted.get();
+        *weights = {wa, wr};
+      }
+    }
+  }
   QuadraticPrior quadratic(np);
   auto set_quadratic = [&]() {
     std::vector<const LinearizedChunk*> lin;
@@ -1071,6 +1114,16 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       for (auto it = split; it != e.end(); ++it) lc.rss_yaw_rate += (*it / weights->yaw_rate) * (*it / weights->yaw_rate);
       AddAutocorrelationSums(std::vector<double>(e.begin(), split), lc.acf_a_y);
       if (split != e.end()) AddAutocorrelationSums(std::vector<double>(split, e.end()), lc.acf_yaw_rate);
+      if (two_outputs) {  // the yaw-rate part (zero for a chunk without one), for re-weighting
+        const long nr = static_cast<long>(e.size() - n_a[ci]);
+        const auto Jr = J.bottomRows(nr);
+        lc.jtj_yaw_rate.resize(static_cast<size_t>(np) * np);
+        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(lc.jtj_yaw_rate.data(), np, np) =
+            Jr.transpose() * Jr;
+        lc.score_yaw_rate.resize(static_cast<size_t>(np));
+        Eigen::Map<Eigen::VectorXd>(lc.score_yaw_rate.data(), np) =
+            Jr.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data() + n_a[ci], nr);
+      }
     }
   });
   for (size_t ci = 0; ci < costs.size(); ++ci) {

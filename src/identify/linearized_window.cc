@@ -50,6 +50,42 @@ bool LinearizedWindow::Compatible(const std::string& model_description, const st
   return true;
 }
 
+bool LinearizedWindow::Reweightable() const {
+  if (!(weight_a_y > 0) || !(weight_yaw_rate > 0)) return false;
+  const size_t np = scale.size();
+  for (const LinearizedSegment& s : segments) {
+    for (const LinearizedChunk& c : s.chunks) {
+      if (c.jtj_yaw_rate.size() != np * np || c.score_yaw_rate.size() != np) return false;
+    }
+  }
+  return true;
+}
+
+LinearizedWindow LinearizedWindow::Reweighted(double weight_a_y_now, double weight_yaw_rate_now) const {
+  LinearizedWindow w = *this;
+  const double fa = (weight_a_y_now / weight_a_y) * (weight_a_y_now / weight_a_y);
+  const double fr = (weight_yaw_rate_now / weight_yaw_rate) * (weight_yaw_rate_now / weight_yaw_rate);
+  auto mix = [&](std::vector<double>& total, std::vector<double>& yaw) {
+    for (size_t i = 0; i < total.size(); ++i) {
+      const double y = yaw[i];
+      total[i] = fa * (total[i] - y) + fr * y;
+      yaw[i] = fr * y;
+    }
+  };
+  for (LinearizedSegment& s : w.segments) {
+    for (LinearizedChunk& c : s.chunks) {
+      mix(c.jtj, c.jtj_yaw_rate);
+      mix(c.score, c.score_yaw_rate);
+      c.rss = weight_a_y_now * weight_a_y_now * c.rss_a_y + weight_yaw_rate_now * weight_yaw_rate_now * c.rss_yaw_rate;
+      for (double& x : c.acf_a_y) x *= fa;
+      for (double& x : c.acf_yaw_rate) x *= fr;
+    }
+  }
+  w.weight_a_y = weight_a_y_now;
+  w.weight_yaw_rate = weight_yaw_rate_now;
+  return w;
+}
+
 nlohmann::json LinearizedWindow::ToJson() const {
   nlohmann::json j;
   j["model"] = model;
@@ -78,6 +114,10 @@ nlohmann::json LinearizedWindow::ToJson() const {
       jc["n_yaw_rate"] = c.n_yaw_rate;
       jc["acf_a_y"] = Binary(c.acf_a_y);
       jc["acf_yaw_rate"] = Binary(c.acf_yaw_rate);
+      if (!c.jtj_yaw_rate.empty()) {
+        jc["jtj_yaw_rate"] = Binary(c.jtj_yaw_rate);
+        jc["score_yaw_rate"] = Binary(c.score_yaw_rate);
+      }
       chunks.push_back(std::move(jc));
     }
     js["chunks"] = std::move(chunks);
@@ -134,6 +174,14 @@ LinearizedWindow LinearizedWindow::FromJson(const JsonIn& in) {
       c.n_yaw_rate = static_cast<uint32_t>(nr);
       c.acf_a_y = Acf(jc.At("acf_a_y"), c.n_a_y);
       c.acf_yaw_rate = Acf(jc.At("acf_yaw_rate"), c.n_yaw_rate);
+      // Optional (states written before they were kept have neither): both or none.
+      if (jc.Has("jtj_yaw_rate") || jc.Has("score_yaw_rate")) {
+        c.jtj_yaw_rate = FiniteDoubles(jc.At("jtj_yaw_rate"), np * np);
+        for (size_t a = 0; a < np; ++a) {
+          if (c.jtj_yaw_rate[a * np + a] < 0) jc.At("jtj_yaw_rate").Fail("a negative diagonal element: not a J'J");
+        }
+        c.score_yaw_rate = FiniteDoubles(jc.At("score_yaw_rate"), np);
+      }
       s.chunks.push_back(std::move(c));
     }
     w.segments.push_back(std::move(s));

@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "chunk_cost.h"
+#include "ndsid/identify/identifier.h"
+#include "ndsid/identify/linearized_window.h"
 #include "synthetic_segments.h"
 
 namespace ndsid::identify {
@@ -165,6 +167,56 @@ TEST(ChunkCost, SmallJetGivesTheWideJetsResidualsAndJacobianBitForBit) {
       using SmallCost = ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kSmallJetSize>;
       const bool built_small = dynamic_cast<const SmallCost*>(built.get()) != nullptr;
       EXPECT_EQ(built_small, np <= model::kSmallJetSize) << where;
+    }
+  }
+}
+
+// Catches: a re-weighting that scales the wrong part (the yaw rate's against a_y's), forgets the
+// score, the sum of squares or the autocorrelation sums, or a yaw-rate part kept with the wrong
+// rows. A two-output fit keeps its chunks' quadratics; re-weighted to other output weights they
+// must be those computed directly with the other weights at the same points. Two seeds, the
+// yaw rate's weight raised and lowered against a_y's.
+TEST(LinearizedWindow, ReweightedIsTheQuadraticBuiltWithTheOtherWeights) {
+  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset"});
+  std::vector<double> truth = t::TruthVector();
+  truth.push_back(0.0);
+  truth.push_back(0.3 * M_PI / 180.0);
+  const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset"});
+  config::IdentificationConfig cfg = t::DefaultIdentificationConfig();
+  cfg.yaw_rate_output = true;
+  for (const uint64_t seed : {11u, 12u}) {
+    const auto segs = t::SyntheticTwoOutputSegments(truth_spec, truth, 6, 60, 0.05, 0.1 * M_PI / 180.0, seed, 0.2);
+    const Identifier id(cfg, t::kWheelbase, spec);
+    const IdentificationResult fit = id.Identify(t::Pointers(segs), {}, std::nullopt, IncrementalUpdate{nullptr, 2.0, true});
+    ASSERT_TRUE(fit.valid && fit.linearized) << fit.reason;
+    const LinearizedWindow& lw = *fit.linearized;
+    ASSERT_TRUE(lw.Reweightable());
+    ASSERT_EQ(lw.segments.size(), segs.size());
+    for (const auto& [fa, fr] : {std::pair{1.0, 1.4}, std::pair{2.0, 0.5}}) {
+      const double wa = fa * lw.weight_a_y, wr = fr * lw.weight_yaw_rate;
+      const LinearizedWindow re = lw.Reweighted(wa, wr);
+      EXPECT_EQ(re.weight_a_y, wa);
+      EXPECT_EQ(re.weight_yaw_rate, wr);
+      const int np = static_cast<int>(lw.scale.size());
+      for (size_t si = 0; si < segs.size(); ++si) {
+        const std::vector<Chunk> chunks = MakeChunks({&segs[si]}, cfg.chunk_s, cfg.burn_in_s);
+        ASSERT_EQ(chunks.size(), re.segments[si].chunks.size());
+        for (size_t k = 0; k < chunks.size(); ++k) {
+          const LinearizedChunk& lc = re.segments[si].chunks[k];
+          auto weights = std::make_shared<const OutputWeights>(OutputWeights{wa, wr});
+          const auto cost = MakeChunkCost(chunks[k], BurnInSamples(chunks[k], cfg.burn_in_s), t::kWheelbase, spec, lw.scale, weights);
+          const Eval direct = EvaluateFull(*cost, lc.theta);
+          const std::string where = "seed " + std::to_string(seed) + " segment " + std::to_string(si) + " chunk " + std::to_string(k);
+          const Eigen::Map<const RowMajor> h(lc.jtj.data(), np, np);
+          const Eigen::Map<const Eigen::VectorXd> sc(lc.score.data(), np);
+          EXPECT_LE((h - direct.gn).cwiseAbs().maxCoeff(), 1e-9 * direct.gn.cwiseAbs().maxCoeff()) << where;
+          EXPECT_LE((sc - direct.gradient).cwiseAbs().maxCoeff(), 1e-9 * direct.gradient.cwiseAbs().maxCoeff() + 1e-12) << where;
+          EXPECT_NEAR(lc.rss, 2 * direct.cost, 1e-9 * 2 * direct.cost) << where;
+          // The sums of squares per output are unweighted and stay; the lag-0 sums are weighted.
+          EXPECT_NEAR(lc.acf_a_y[0], wa * wa * lc.rss_a_y, 1e-9 * lc.acf_a_y[0]) << where;
+          EXPECT_NEAR(lc.acf_yaw_rate[0], wr * wr * lc.rss_yaw_rate, 1e-9 * lc.acf_yaw_rate[0]) << where;
+        }
+      }
     }
   }
 }

@@ -296,6 +296,25 @@ TEST(Incremental, PriorRoundTripsThroughTheCodecAndRefusesDamage) {
   ASSERT_EQ(back.chunks(), b.linearized->chunks());
   EXPECT_EQ(back.segments[0].chunks[0].jtj, b.linearized->segments[0].chunks[0].jtj);
   EXPECT_EQ(back.segments.back().chunks.back().acf_a_y, b.linearized->segments.back().chunks.back().acf_a_y);
+  // Both outputs (the example's): each chunk's yaw-rate part is kept, so the prior can be re-weighted.
+  ASSERT_TRUE(b.linearized->Reweightable());
+  EXPECT_TRUE(back.Reweightable());
+  EXPECT_EQ(back.segments[0].chunks[0].jtj_yaw_rate, b.linearized->segments[0].chunks[0].jtj_yaw_rate);
+  EXPECT_EQ(back.segments.back().chunks.back().score_yaw_rate, b.linearized->segments.back().chunks.back().score_yaw_rate);
+  {  // A state written before the yaw-rate parts were kept still reads; it is not re-weighted.
+    nlohmann::json old_state = doc;
+    for (auto& seg : old_state["segments"])
+      for (auto& ch : seg["chunks"]) {
+        ch.erase("jtj_yaw_rate");
+        ch.erase("score_yaw_rate");
+      }
+    const LinearizedWindow old_back = LinearizedWindow::FromJson(JsonIn(old_state, "linearized"));
+    EXPECT_EQ(old_back.chunks(), b.linearized->chunks());
+    EXPECT_FALSE(old_back.Reweightable());
+    const IdentificationResult from_old =
+        id.Identify(segs, {}, b.AllValues(), IncrementalUpdate{std::make_shared<LinearizedWindow>(old_back), 0.5, true});
+    EXPECT_TRUE(from_old.valid) << from_old.reason;
+  }
   const IdentificationResult from_back =
       id.Identify(segs, {}, b.AllValues(), IncrementalUpdate{std::make_shared<LinearizedWindow>(back), 0.5, true});
   const IdentificationResult from_mem = id.Identify(segs, {}, b.AllValues(), IncrementalUpdate{b.linearized, 0.5, true});
@@ -324,6 +343,12 @@ TEST(Incremental, PriorRoundTripsThroughTheCodecAndRefusesDamage) {
   bad = doc;
   bad["segments"][0]["chunks"][0]["rss"] = -2.0;
   expect_refused(bad, "linearized.segments[0].chunks[0].rss");
+  bad = doc;
+  bad["segments"][0]["chunks"][0]["jtj_yaw_rate"] = DoublesToBinary(jtj.data(), jtj.size());  // the negative diagonal
+  expect_refused(bad, "linearized.segments[0].chunks[0].jtj_yaw_rate");
+  bad = doc;
+  bad["segments"][0]["chunks"][0].erase("score_yaw_rate");  // one part without the other
+  expect_refused(bad, "linearized.segments[0].chunks[0]");
 }
 
 }  // namespace

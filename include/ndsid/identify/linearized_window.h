@@ -30,6 +30,10 @@ struct LinearizedChunk {
   // Weighted residuals' autocorrelation sums (lags 0..kMaxLag) per output: the pooled
   // autocorrelation time and noise level of the window.
   std::vector<double> acf_a_y, acf_yaw_rate;
+  // The yaw-rate output's part of jtj and score (weighted as they are), so the a_y part is the
+  // rest: with both, the quadratic can be re-weighted exactly (LinearizedWindow::Reweighted).
+  // Empty for a prior of a_y alone and in states written before they were kept.
+  std::vector<double> jtj_yaw_rate, score_yaw_rate;
 };
 
 // The chunks of one gated segment of the window (identified by drive, start and length).
@@ -50,6 +54,12 @@ struct LinearizedWindow {
   int updates_since_full = 0;  // incremental updates since the last full-window refit
 
   size_t chunks() const;
+  // Whether every chunk keeps its yaw-rate part (two outputs): only then can it be re-weighted.
+  bool Reweightable() const;
+  // The same quadratics for other output weights: each chunk's a_y part scaled by
+  // (weight_a_y' / weight_a_y)^2 and its yaw-rate part by (weight_yaw_rate' / weight_yaw_rate)^2,
+  // as are its weighted sum of squares and autocorrelation sums. Requires Reweightable().
+  LinearizedWindow Reweighted(double weight_a_y_now, double weight_yaw_rate_now) const;
   // Same model, scaling, chunking and a consistent layout: only then can its quadratics join a fit.
   bool Compatible(const std::string& model_description, const std::vector<double>& scale_now, double chunk_s_now,
                   double burn_in_s_now) const;
