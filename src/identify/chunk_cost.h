@@ -78,15 +78,14 @@ inline std::unique_ptr<ChunkCost> MakeChunkCost(const Chunk& c, size_t burn, dou
                                                 std::shared_ptr<const OutputWeights> weights = nullptr) {
   if (!weights) weights = std::make_shared<const OutputWeights>();
   auto* functor = new ChunkResidual(c, burn, l, spec, scale, std::move(weights));
-  const int m = static_cast<int>(functor->num_residuals());
-  std::unique_ptr<ChunkCost> cost;
+  std::unique_ptr<ChunkCost> cost;  // owns the functor
   if (scale.size() <= static_cast<size_t>(model::kSmallJetSize)) {
     cost = std::make_unique<ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kSmallJetSize>>(functor);
   } else {
     cost = std::make_unique<ceres::DynamicAutoDiffCostFunction<ChunkResidual, model::kJetSize>>(functor);
   }
   cost->AddParameterBlock(static_cast<int>(scale.size()));
-  cost->SetNumResiduals(m);
+  cost->SetNumResiduals(static_cast<int>(functor->num_residuals()));
   return cost;
 }
 

@@ -114,9 +114,20 @@ constexpr double kEgCheck = 0.15;
 constexpr int kCoarseIterations = 25;
 
 // Adds autocorrelation sums (lags 0..kAcfMaxLag) into a pooled vector.
-void AddSums(const std::vector<double>& x, std::vector<double>& pooled) {
+// Adds factor * x into the pooled autocorrelation sums.
+void AddSums(const std::vector<double>& x, std::vector<double>& pooled, double factor = 1.0) {
   pooled.resize(kAcfMaxLag + 1, 0.0);
-  for (size_t k = 0; k < x.size() && k < pooled.size(); ++k) pooled[k] += x[k];
+  for (size_t k = 0; k < x.size() && k < pooled.size(); ++k) pooled[k] += factor * x[k];
+}
+
+// Adds every series' autocorrelation sums into acf; returns the number of residuals.
+double AddSeriesSums(const std::vector<std::vector<double>>& series, std::vector<double>& acf) {
+  double n = 0;
+  for (const auto& e : series) {
+    AddAutocorrelationSums(e, acf);
+    n += static_cast<double>(e.size());
+  }
+  return n;
 }
 
 // sigma^2 tau of pooled autocorrelation sums over n residuals (acf[0] is their sum of squares).
@@ -745,21 +756,14 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     EvaluateSeries(costs, n_a, theta.data(), a, rr, config_.threads);
     *weights = {prior->weight_a_y, prior->weight_yaw_rate};
     std::vector<double> acf_a(kAcfMaxLag + 1, 0.0), acf_r(kAcfMaxLag + 1, 0.0);
-    double na = 0, nr = 0;
-    for (const auto& e : a) {
-      AddAutocorrelationSums(e, acf_a);
-      na += static_cast<double>(e.size());
-    }
-    for (const auto& e : rr) {
-      AddAutocorrelationSums(e, acf_r);
-      nr += static_cast<double>(e.size());
-    }
+    double na = AddSeriesSums(a, acf_a);
+    double nr = AddSeriesSums(rr, acf_r);
     const double ua = 1.0 / (prior->weight_a_y * prior->weight_a_y);
     const double ur = 1.0 / (prior->weight_yaw_rate * prior->weight_yaw_rate);
     for (const PriorSegment& ps : from_prior) {
       for (const LinearizedChunk& c : ps.lin->chunks) {
-        for (size_t k = 0; k < c.acf_a_y.size() && k <= kAcfMaxLag; ++k) acf_a[k] += ua * c.acf_a_y[k];
-        for (size_t k = 0; k < c.acf_yaw_rate.size() && k <= kAcfMaxLag; ++k) acf_r[k] += ur * c.acf_yaw_rate[k];
+        AddSums(c.acf_a_y, acf_a, ua);
+        AddSums(c.acf_yaw_rate, acf_r, ur);
         na += c.n_a_y;
         nr += c.n_yaw_rate;
       }
@@ -794,13 +798,8 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     std::vector<std::vector<double>> a, rr;
     EvaluateSeries(costs, n_a, theta.data(), a, rr, config_.threads);
     std::vector<double> acf(kAcfMaxLag + 1, 0.0);
-    double n = 0;
-    for (const auto* series : {&a, &rr}) {
-      for (const auto& e : *series) {
-        AddAutocorrelationSums(e, acf);
-        n += static_cast<double>(e.size());
-      }
-    }
+    double n = AddSeriesSums(a, acf);  // in this order: the sums add up in it
+    n += AddSeriesSums(rr, acf);
     n += add_prior_sums(acf);
     return LevelOfSums(acf, n);
   };

@@ -21,6 +21,15 @@ std::vector<double> FiniteDoubles(const JsonIn& in, size_t count) {
   return v;
 }
 
+// A J'J (np x np, row-major): finite, with a non-negative diagonal.
+std::vector<double> GramMatrix(const JsonIn& in, size_t np) {
+  std::vector<double> v = FiniteDoubles(in, np * np);
+  for (size_t a = 0; a < np; ++a) {
+    if (v[a * np + a] < 0) in.Fail("a negative diagonal element: not a J'J");
+  }
+  return v;
+}
+
 std::vector<double> Acf(const JsonIn& in, uint32_t n) {
   if (n == 0) return {};
   std::vector<double> v = FiniteDoubles(in, kAcfMaxLag + 1);
@@ -159,10 +168,7 @@ LinearizedWindow LinearizedWindow::FromJson(const JsonIn& in) {
       const JsonIn jc = chunks.At(k);
       LinearizedChunk c;
       c.theta = FiniteDoubles(jc.At("theta"), np);
-      c.jtj = FiniteDoubles(jc.At("jtj"), np * np);
-      for (size_t a = 0; a < np; ++a) {
-        if (c.jtj[a * np + a] < 0) jc.At("jtj").Fail("a negative diagonal element: not a J'J");
-      }
+      c.jtj = GramMatrix(jc.At("jtj"), np);
       c.score = FiniteDoubles(jc.At("score"), np);
       c.rss = jc.Finite("rss");
       c.rss_a_y = jc.Finite("rss_a_y");
@@ -176,10 +182,7 @@ LinearizedWindow LinearizedWindow::FromJson(const JsonIn& in) {
       c.acf_yaw_rate = Acf(jc.At("acf_yaw_rate"), c.n_yaw_rate);
       // Optional (states written before they were kept have neither): both or none.
       if (jc.Has("jtj_yaw_rate") || jc.Has("score_yaw_rate")) {
-        c.jtj_yaw_rate = FiniteDoubles(jc.At("jtj_yaw_rate"), np * np);
-        for (size_t a = 0; a < np; ++a) {
-          if (c.jtj_yaw_rate[a * np + a] < 0) jc.At("jtj_yaw_rate").Fail("a negative diagonal element: not a J'J");
-        }
+        c.jtj_yaw_rate = GramMatrix(jc.At("jtj_yaw_rate"), np);
         c.score_yaw_rate = FiniteDoubles(jc.At("score_yaw_rate"), np);
       }
       s.chunks.push_back(std::move(c));

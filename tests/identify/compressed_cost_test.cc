@@ -59,10 +59,7 @@ void ExpectSame(const Eval& full, const Eval& comp, const std::string& where) {
 // or output weights. Two outputs with road_bank and gyro_offset, a_y-only and yaw-rate chunks,
 // at the start values and at perturbed parameters, two seeds.
 TEST(CompressedChunkCost, GivesTheSolverTheChunksCostGradientAndGaussNewtonMatrix) {
-  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset"});
-  std::vector<double> truth = t::TruthVector();
-  truth.push_back(0.0);
-  truth.push_back(0.3 * M_PI / 180.0);
+  const auto [truth_spec, truth] = t::CrossfallGyroOffsetTruth();
   const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset"});
   const int np = spec.num_params();
   for (const uint64_t seed : {5u, 6u}) {
@@ -109,10 +106,7 @@ TEST(CompressedChunkCost, GivesTheSolverTheChunksCostGradientAndGaussNewtonMatri
 // bit for bit. Every built-in effect on its own, the road_bank + gyro_offset model of the
 // example, and all effects together (SmallJet then in two passes), at perturbed parameters.
 TEST(ChunkCost, SmallJetGivesTheWideJetsResidualsAndJacobianBitForBit) {
-  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset"});
-  std::vector<double> truth = t::TruthVector();
-  truth.push_back(0.0);
-  truth.push_back(0.3 * M_PI / 180.0);
+  const auto [truth_spec, truth] = t::CrossfallGyroOffsetTruth();
   const auto segs = t::SyntheticTwoOutputSegments(truth_spec, truth, 2, 40, 0.05, 0.1 * M_PI / 180.0, 7, 0.2);
   const std::vector<Chunk> chunks = MakeChunks(t::Pointers(segs), 20.0, 1.5);
   ASSERT_GE(chunks.size(), 2u);
@@ -140,9 +134,10 @@ TEST(ChunkCost, SmallJetGivesTheWideJetsResidualsAndJacobianBitForBit) {
       auto weights = std::make_shared<const OutputWeights>(OutputWeights{1.0, 1.0});
       auto make = [&](auto stride) {
         using Cost = ceres::DynamicAutoDiffCostFunction<ChunkResidual, decltype(stride)::value>;
-        auto cost = std::make_unique<Cost>(new ChunkResidual(c, BurnInSamples(c, 1.5), t::kWheelbase, spec, scale, weights));
+        auto* functor = new ChunkResidual(c, BurnInSamples(c, 1.5), t::kWheelbase, spec, scale, weights);
+        auto cost = std::make_unique<Cost>(functor);  // owns the functor
         cost->AddParameterBlock(np);
-        cost->SetNumResiduals(static_cast<int>(ChunkResidual(c, BurnInSamples(c, 1.5), t::kWheelbase, spec, scale, weights).num_residuals()));
+        cost->SetNumResiduals(static_cast<int>(functor->num_residuals()));
         return cost;
       };
       const auto small = make(std::integral_constant<int, model::kSmallJetSize>{});
@@ -177,10 +172,7 @@ TEST(ChunkCost, SmallJetGivesTheWideJetsResidualsAndJacobianBitForBit) {
 // must be those computed directly with the other weights at the same points. Two seeds, the
 // yaw rate's weight raised and lowered against a_y's.
 TEST(LinearizedWindow, ReweightedIsTheQuadraticBuiltWithTheOtherWeights) {
-  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset"});
-  std::vector<double> truth = t::TruthVector();
-  truth.push_back(0.0);
-  truth.push_back(0.3 * M_PI / 180.0);
+  const auto [truth_spec, truth] = t::CrossfallGyroOffsetTruth();
   const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset"});
   config::IdentificationConfig cfg = t::DefaultIdentificationConfig();
   cfg.yaw_rate_output = true;

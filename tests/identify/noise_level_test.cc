@@ -92,10 +92,7 @@ TEST(NoiseLevel, LagSumsAreTheirDefinitionBitForBit) {
 // optimum, the noise levels) whose sums depend on the thread count or miss a chunk. Two outputs
 // with road_bank and gyro_offset, fitted on 1 and on 2 threads.
 TEST(NoiseLevel, FitOnTwoThreadsEqualsOneThread) {
-  const model::ModelSpec truth_spec = model::ModelSpec::FromNames({"crossfall", "gyro_offset"});
-  std::vector<double> truth = t::TruthVector();
-  truth.push_back(0.0);
-  truth.push_back(0.3 * M_PI / 180.0);
+  const auto [truth_spec, truth] = t::CrossfallGyroOffsetTruth();
   const auto train = t::SyntheticTwoOutputSegments(truth_spec, truth, 24, 60, 0.05, 0.1 * M_PI / 180.0, 81, 0.2);
   const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset"});
   config::IdentificationConfig cfg = t::DefaultIdentificationConfig();

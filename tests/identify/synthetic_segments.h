@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "ndsid/config/config.h"
@@ -38,6 +39,15 @@ inline std::vector<double> TruthVector() {
   return {p.m, p.Jz, p.cv, p.ch, p.lv, p.is};
 }
 inline constexpr double kWheelbase = 2.648;
+
+// A truth with a road crossfall (its parameter 0: no bank offset) and a 0.3 deg/s gyro offset:
+// the two-output tests' simulated car. Returns the model and its parameter vector.
+inline std::pair<model::ModelSpec, std::vector<double>> CrossfallGyroOffsetTruth() {
+  std::vector<double> truth = TruthVector();
+  truth.push_back(0.0);
+  truth.push_back(0.3 * M_PI / 180.0);
+  return {model::ModelSpec::FromNames({"crossfall", "gyro_offset"}), truth};
+}
 
 // Smooth random inputs of one segment: steering a sum of 4 sinusoids (0.05..0.6 Hz) of up to
 // ~40 deg at the wheel, speed 8..35 m/s with a slow swing.
