@@ -80,7 +80,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
   }
   progress.Done();
   pipeline.Finish();
-  if (!pipeline.accumulator().window().empty()) pipeline.IdentifyNow(true);  // the final fit: the whole window
+  if (!pipeline.accumulator().window().empty()) pipeline.IdentifyNow(true);  // the final fit: the whole window's optimum
   out.history = pipeline.history();
   // The final fit, valid or not (a replay reports what its data give; the daemon keeps
   // publishing its last valid estimate beside a not-valid one).

@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -109,15 +110,53 @@ double NoiseLevel(const std::vector<std::unique_ptr<CostFn>>& costs, const std::
 constexpr double kRelinearizeStep = 0.25;
 constexpr size_t kEgCheckChunks = 32;
 constexpr double kEgCheck = 0.15;
+// Rounds of in-place relinearisation after the first incremental solve; an update still unsettled
+// is fitted as the whole window.
+constexpr int kRelinearizeRounds = 4;
+// An exact update (IncrementalUpdate::exact) relinearises every prior chunk the estimate lies
+// further than this many of its standard deviations from.
+constexpr double kExactSigma = 0.05;
 // The coarse start's solves (IdentificationConfig::coarse_min_chunks) stop after this many
 // iterations each.
 constexpr int kCoarseIterations = 25;
 
-// Adds autocorrelation sums (lags 0..kAcfMaxLag) into a pooled vector.
-// Adds factor * x into the pooled autocorrelation sums.
+// Adds factor * x into the pooled autocorrelation sums (lags 0..kAcfMaxLag).
 void AddSums(const std::vector<double>& x, std::vector<double>& pooled, double factor = 1.0) {
   pooled.resize(kAcfMaxLag + 1, 0.0);
   for (size_t k = 0; k < x.size() && k < pooled.size(); ++k) pooled[k] += factor * x[k];
+}
+
+using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// A chunk's quadratic at theta (the next update's prior) from its weighted residuals e (the
+// n_a a_y ones first, then the yaw rate's), their Jacobian J and its J'J and score J'e.
+void Linearize(LinearizedChunk& lc, const std::vector<double>& theta, const std::vector<double>& e,
+               const Eigen::Ref<const RowMajorMatrix>& J, const Eigen::MatrixXd& jtj, const Eigen::VectorXd& score, size_t n_a,
+               const OutputWeights& weights, bool two_outputs) {
+  const int np = static_cast<int>(theta.size());
+  const auto split = e.begin() + static_cast<long>(n_a);
+  lc = LinearizedChunk{};
+  lc.theta = theta;
+  lc.jtj.resize(static_cast<size_t>(np) * np);
+  Eigen::Map<RowMajorMatrix>(lc.jtj.data(), np, np) = jtj;
+  lc.score.resize(static_cast<size_t>(np));
+  Eigen::Map<Eigen::VectorXd>(lc.score.data(), np) = score;
+  lc.rss = Eigen::Map<const Eigen::VectorXd>(e.data(), static_cast<long>(e.size())).squaredNorm();
+  lc.n_a_y = static_cast<uint32_t>(n_a);
+  lc.n_yaw_rate = static_cast<uint32_t>(e.size() - n_a);
+  for (auto it = e.begin(); it != split; ++it) lc.rss_a_y += (*it / weights.a_y) * (*it / weights.a_y);
+  for (auto it = split; it != e.end(); ++it) lc.rss_yaw_rate += (*it / weights.yaw_rate) * (*it / weights.yaw_rate);
+  AddAutocorrelationSums(std::vector<double>(e.begin(), split), lc.acf_a_y);
+  if (split != e.end()) AddAutocorrelationSums(std::vector<double>(split, e.end()), lc.acf_yaw_rate);
+  if (two_outputs) {  // the yaw-rate part (zero for a chunk without one), for re-weighting
+    const long nr = static_cast<long>(e.size() - n_a);
+    const auto Jr = J.bottomRows(nr);
+    lc.jtj_yaw_rate.resize(static_cast<size_t>(np) * np);
+    Eigen::Map<RowMajorMatrix>(lc.jtj_yaw_rate.data(), np, np) = Jr.transpose() * Jr;
+    lc.score_yaw_rate.resize(static_cast<size_t>(np));
+    Eigen::Map<Eigen::VectorXd>(lc.score_yaw_rate.data(), np) =
+        Jr.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data() + n_a, nr);
+  }
 }
 
 // Adds every series' autocorrelation sums into acf; returns the number of residuals.
@@ -643,6 +682,8 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
     return h;
   };
+  const double sigma_rule = update && update->exact ? std::min(update->relinearize_sigma, kExactSigma)
+                                                    : (update ? update->relinearize_sigma : 0.0);
   auto stale_segments = [&](const std::vector<double>& at) {
     std::vector<size_t> out;
     if (from_prior.empty()) return out;
@@ -660,7 +701,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
         worst = std::max(worst, m);
         step = std::max(step, d.lpNorm<Eigen::Infinity>());
       }
-      if (!(worst <= update->relinearize_sigma * update->relinearize_sigma) || !(step <= kRelinearizeStep)) {
+      if (!(worst <= sigma_rule * sigma_rule) || !(step <= kRelinearizeStep)) {
         // For the log: the parameter whose own move (in its marginal sigma) is the largest.
         Eigen::Index most = 0;
         (worst_d.cwiseAbs().array() * h.diagonal().cwiseMax(0.0).array().sqrt()).maxCoeff(&most);
@@ -671,14 +712,6 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
     return out;
   };
-  auto relinearize = [&](const std::vector<size_t>& stale) {
-    for (auto it = stale.rbegin(); it != stale.rend(); ++it) {
-      r.chunks_relinearized += from_prior[*it].lin->chunks.size();
-      simulated.push_back(from_prior[*it].seg);
-      from_prior.erase(from_prior.begin() + static_cast<std::ptrdiff_t>(*it));
-    }
-  };
-  if (prior) relinearize(stale_segments(theta));
   const std::vector<double> theta0 = theta;  // the start: the anchor along the prior's weak directions
   std::vector<Chunk> chunks;
   std::vector<const stats::Segment*> chunk_segment;  // the segment each chunk was cut from
@@ -718,10 +751,9 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     return w;
   };
   if (prior && two_outputs != (prior->weight_yaw_rate > 0)) return whole_window(nullptr);
-  // With two outputs the prior's output weights hold for the update; they were estimated from
-  // the data the prior was built on. While the new data outnumber the prior's chunks (the first
-  // updates of a window), a whole-window fit costs at most twice the update and estimates the
-  // weights from all the data.
+  // While the new data outnumber the prior's chunks (the first updates of a window, with two
+  // outputs), a whole-window fit costs at most about twice the update and estimates the output
+  // weights from all the data at its own solution.
   size_t prior_chunks = 0;
   for (const PriorSegment& ps : from_prior) prior_chunks += ps.lin->chunks.size();
   if (prior && two_outputs && chunks.size() >= prior_chunks)
@@ -781,6 +813,48 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       }
     }
   }
+  // Stale prior segments (their linearisation points left behind by the estimate) are
+  // relinearised in place: each chunk simulated once with its Jacobian at theta, its quadratic
+  // replaced by the one there (a copy of the prior holds them). The fit then goes on with the
+  // quadratics, a Gauss-Newton step on those chunks; where that step leaves them again, the
+  // checks after the solve relinearise them at the new point. At a solution where no chunk is
+  // stale the scores of all chunks sum to zero as in the whole-window fit.
+  std::shared_ptr<LinearizedWindow> relinearized;
+  auto relinearize = [&](const std::vector<size_t>& stale) -> bool {
+    if (stale.empty()) return true;
+    if (!relinearized) {
+      relinearized = std::make_shared<LinearizedWindow>(*prior);
+      for (PriorSegment& ps : from_prior) ps.lin = &relinearized->segments[static_cast<size_t>(ps.lin - prior->segments.data())];
+      prior = relinearized.get();
+    }
+    std::vector<std::vector<Chunk>> cuts;
+    std::vector<std::pair<const Chunk*, LinearizedChunk*>> jobs;
+    cuts.reserve(stale.size());
+    for (size_t i : stale) {
+      cuts.push_back(MakeChunks({from_prior[i].seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_));
+      auto& lin_chunks = relinearized->segments[static_cast<size_t>(from_prior[i].lin - relinearized->segments.data())].chunks;
+      if (cuts.back().size() != lin_chunks.size()) return false;
+      for (size_t k = 0; k < lin_chunks.size(); ++k) jobs.emplace_back(&cuts.back()[k], &lin_chunks[k]);
+    }
+    std::vector<char> ok(jobs.size(), 0);
+    ParallelFor(jobs.size(), config_.threads, [&](size_t j) {
+      const Chunk& c = *jobs[j].first;
+      const size_t burn = BurnInSamples(c, config_.burn_in_s);
+      const auto cost = MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, weights);
+      const int m = cost->num_residuals();
+      std::vector<double> e(static_cast<size_t>(m)), jac(static_cast<size_t>(m) * np);
+      const double* pp[] = {theta.data()};
+      double* jj[] = {jac.data()};
+      if (!cost->Evaluate(pp, e.data(), jj)) return;
+      const Eigen::Map<const RowMajorMatrix> J(jac.data(), m, np);
+      const Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
+      if (!ev.allFinite() || !J.allFinite()) return;
+      Linearize(*jobs[j].second, theta, e, J, J.transpose() * J, J.transpose() * ev, c.n - burn, *weights, two_outputs);
+      ok[j] = 1;
+    });
+    r.chunks_relinearized += jobs.size();
+    return std::all_of(ok.begin(), ok.end(), [](char x) { return x != 0; });
+  };
   QuadraticPrior quadratic(np);
   auto set_quadratic = [&]() {
     std::vector<const LinearizedChunk*> lin;
@@ -788,7 +862,9 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       for (const LinearizedChunk& c : ps.lin->chunks) lin.push_back(&c);
     quadratic.Set(lin, prior_level(), theta0);
   };
+  const char* kNotRelinearized = "incremental: a prior chunk could not be relinearised (non-finite residuals), so fitted as the whole window";
   if (prior) {
+    if (!relinearize(stale_segments(theta))) return whole_window(kNotRelinearized);
     set_quadratic();
     problem.AddResidualBlock(&quadratic, nullptr, theta.data());
   }
@@ -983,12 +1059,13 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       r.iterations += solve(options, problem, summary);
     }
   }
-  // Incremental: if the solution left some prior segments' linearisation points, simulate them
-  // and solve again (at most three rounds; every segment simulated is the full-window fit).
+  // Incremental: if the solution left some prior segments' linearisation points, relinearise
+  // them there and solve again (at most kRelinearizeRounds rounds; an update still unsettled
+  // after them is fitted as the whole window).
   // The quadratics are also checked where it matters, on EG: a sample of the prior's chunks is
   // simulated at the solution, the error of their predicted scores (J'e) is scaled to the whole
   // prior, and the Newton step it implies moves EG by `shift`; beyond kEgCheck of EG's standard
-  // deviation, every prior segment is simulated again.
+  // deviation, every prior segment is relinearised.
   auto eg_check = [&]() -> bool {
     std::vector<std::pair<size_t, size_t>> all;  // (prior segment, chunk)
     for (size_t i = 0; i < from_prior.size(); ++i)
@@ -1041,28 +1118,24 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
                   all.size(), sd > 0 ? shift / sd : 0.0);
     return sd > 0 && shift <= kEgCheck * sd;
   };
-  for (int round = 0; prior && round < 3 && summary.IsSolutionUsable(); ++round) {
+  bool settled = !prior;
+  for (int round = 0; prior && summary.IsSolutionUsable(); ++round) {
     std::vector<size_t> stale = stale_segments(theta);
     if (stale.empty() && !eg_check()) {
       for (size_t i = 0; i < from_prior.size(); ++i) stale.push_back(i);
     }
-    if (stale.empty()) break;
-    const size_t first_simulated = simulated.size(), first_chunk = chunks.size();
-    relinearize(stale);
-    // Every prior segment to be simulated again: the update is a whole-window fit. With two
-    // outputs the prior's output weights would still hold, fixed when the prior was first built;
-    // the whole-window fit estimates them from the data, so fit as that one (its result exactly).
-    if (two_outputs && from_prior.empty()) {
-      IdentificationResult w =
-          whole_window("incremental: every prior segment relinearised, so refitted as the whole window (its own output weights)");
-      w.chunks_relinearized = r.chunks_relinearized;
-      return w;
+    if (stale.empty()) {
+      settled = true;
+      break;
     }
-    cut(SegmentList(simulated.begin() + static_cast<std::ptrdiff_t>(first_simulated), simulated.end()));
-    add_costs(first_chunk);
+    if (round == kRelinearizeRounds) break;
+    if (!relinearize(stale)) return whole_window(kNotRelinearized);
     set_quadratic();
     r.iterations += solve(options, problem, summary);
   }
+  if (!settled && summary.IsSolutionUsable())
+    return whole_window("incremental: the estimate still left the prior's linearisation points after the relinearisation rounds, "
+                        "so fitted as the whole window");
   r.termination = ceres::TerminationTypeToString(summary.termination_type);
   if (!summary.IsSolutionUsable()) {
     r.reason = "solver failed: " + summary.message;
@@ -1098,32 +1171,8 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, np);
     at[ci].jtj = J.transpose() * J;  // the model output's Jacobian is -J: signs cancel here and below
     at[ci].score = J.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data(), m);
-    if (keep) {  // this chunk's quadratic at the estimate: the next update's prior
-      const auto split = e.begin() + static_cast<long>(n_a[ci]);
-      LinearizedChunk& lc = simulated_lin[ci];
-      lc.theta = theta;
-      lc.jtj.resize(static_cast<size_t>(np) * np);
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(lc.jtj.data(), np, np) = at[ci].jtj;
-      lc.score.resize(static_cast<size_t>(np));
-      Eigen::Map<Eigen::VectorXd>(lc.score.data(), np) = at[ci].score;
-      lc.rss = Eigen::Map<const Eigen::VectorXd>(e.data(), m).squaredNorm();
-      lc.n_a_y = static_cast<uint32_t>(n_a[ci]);
-      lc.n_yaw_rate = static_cast<uint32_t>(e.size() - n_a[ci]);
-      for (auto it = e.begin(); it != split; ++it) lc.rss_a_y += (*it / weights->a_y) * (*it / weights->a_y);
-      for (auto it = split; it != e.end(); ++it) lc.rss_yaw_rate += (*it / weights->yaw_rate) * (*it / weights->yaw_rate);
-      AddAutocorrelationSums(std::vector<double>(e.begin(), split), lc.acf_a_y);
-      if (split != e.end()) AddAutocorrelationSums(std::vector<double>(split, e.end()), lc.acf_yaw_rate);
-      if (two_outputs) {  // the yaw-rate part (zero for a chunk without one), for re-weighting
-        const long nr = static_cast<long>(e.size() - n_a[ci]);
-        const auto Jr = J.bottomRows(nr);
-        lc.jtj_yaw_rate.resize(static_cast<size_t>(np) * np);
-        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(lc.jtj_yaw_rate.data(), np, np) =
-            Jr.transpose() * Jr;
-        lc.score_yaw_rate.resize(static_cast<size_t>(np));
-        Eigen::Map<Eigen::VectorXd>(lc.score_yaw_rate.data(), np) =
-            Jr.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data() + n_a[ci], nr);
-      }
-    }
+    if (keep)  // this chunk's quadratic at the estimate: the next update's prior
+      Linearize(simulated_lin[ci], theta, e, J, at[ci].jtj, at[ci].score, n_a[ci], *weights, two_outputs);
   });
   for (size_t ci = 0; ci < costs.size(); ++ci) {
     std::vector<double>& e = at[ci].e;
@@ -1340,15 +1389,50 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
   }
 
-  if (!validation.empty()) r.rmse_validation_mps2 = Rmse(r.AllValues(), validation, &r.residuals_validation);
-  if (!validation.empty() && two_outputs) r.rmse_validation_yaw_radps = RmseYawRate(r.AllValues(), validation);
+  if (!validation.empty()) {
+    // The held-out RMSE of a_y (and of the yaw rate with both outputs): each validation chunk
+    // simulated once, on config_.threads threads, its sums added in chunk order.
+    const std::vector<double> values = r.AllValues();
+    const auto vchunks = MakeChunks(validation, config_.chunk_s, config_.burn_in_s, drive_overrides_);
+    struct Sums {
+      double a = 0, r = 0;
+      size_t na = 0, nr = 0;
+    };
+    std::vector<Sums> sums(vchunks.size());
+    ParallelFor(vchunks.size(), config_.threads, [&](size_t i) {
+      const Chunk& c = vchunks[i];
+      const bool yaw = two_outputs && c.has_yaw_rate();
+      std::vector<double> a_y(c.n), yr(yaw ? c.n : 0);
+      model::SimulateModel(spec_, c.ParamsFor(values).data(), wheelbase_m_, c.Inputs(), a_y.data(), nullptr,
+                           yaw ? yr.data() : nullptr);
+      for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
+        const double e = c.samples[k].lat_accel_mps2 - a_y[k];
+        sums[i].a += e * e;
+        ++sums[i].na;
+        if (!yaw) continue;
+        const double er = c.samples[k].yaw_rate_radps - yr[k];
+        sums[i].r += er * er;
+        ++sums[i].nr;
+      }
+    });
+    Sums total;
+    for (const Sums& x : sums) {
+      total.a += x.a;
+      total.r += x.r;
+      total.na += x.na;
+      total.nr += x.nr;
+    }
+    r.residuals_validation = total.na;
+    r.rmse_validation_mps2 = total.na ? std::sqrt(total.a / static_cast<double>(total.na)) : -1.0;
+    if (two_outputs) r.rmse_validation_yaw_radps = total.nr ? std::sqrt(total.r / static_cast<double>(total.nr)) : -1.0;
+  }
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);
   if (!r.valid) r.reason = "non-finite EG or standard error";
   if (prior) {
     char how[200];
-    std::snprintf(how, sizeof how, "incremental: %zu chunks simulated (%zu of them relinearised), %zu from the prior",
-                  r.chunks_simulated, r.chunks_relinearized, r.chunks_from_prior);
+    std::snprintf(how, sizeof how, "incremental%s: %zu chunks simulated, %zu from the prior (%zu relinearisations)",
+                  update->exact ? " (exact)" : "", r.chunks_simulated, r.chunks_from_prior, r.chunks_relinearized);
     r.update = how;
   }
   if (keep && r.valid) {
@@ -1360,7 +1444,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     lw->weight_yaw_rate = weights->yaw_rate;
     lw->chunk_s = config_.chunk_s;
     lw->burn_in_s = config_.burn_in_s;
-    lw->updates_since_full = prior && r.chunks_from_prior > 0 ? prior->updates_since_full + 1 : 0;
+    lw->updates_since_full = prior && r.chunks_from_prior > 0 && !update->exact ? prior->updates_since_full + 1 : 0;
     std::map<const stats::Segment*, const LinearizedSegment*> kept;
     for (const PriorSegment& ps : from_prior) kept[ps.seg] = ps.lin;
     std::map<const stats::Segment*, std::vector<size_t>> fresh;

@@ -193,20 +193,24 @@ std::optional<model::Params<double>> Pipeline::WarmStartBase() const {
 
 identify::IdentificationResult Pipeline::Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
                                              const std::optional<std::vector<double>>& warm_start,
-                                             std::shared_ptr<const identify::LinearizedWindow> prior) {
+                                             std::shared_ptr<const identify::LinearizedWindow> prior, bool exact) {
   identify::Identifier id = identifier;  // the snapshot's standstills, on this thread's copy
   id.set_standstill(snap.standstill);
   const config::IdentificationConfig& c = identifier.config();
   if (!c.incremental) return id.Identify(snap.training, snap.validation, warm_start);
   return id.Identify(snap.training, snap.validation, warm_start,
-                     identify::IncrementalUpdate{std::move(prior), c.relinearize_sigma, true});
+                     identify::IncrementalUpdate{std::move(prior), c.relinearize_sigma, true, exact});
 }
 
 std::shared_ptr<const identify::LinearizedWindow> Pipeline::Prior() const {
   const config::IdentificationConfig& c = config_.identification;
   if (!c.incremental || !linearized_) return nullptr;
-  if (c.full_refit_every > 0 && linearized_->updates_since_full + 1 >= c.full_refit_every) return nullptr;
   return linearized_;
+}
+
+bool Pipeline::ExactDue() const {
+  const config::IdentificationConfig& c = config_.identification;
+  return c.incremental && linearized_ && c.full_refit_every > 0 && linearized_->updates_since_full + 1 >= c.full_refit_every;
 }
 
 const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit) {
@@ -276,9 +280,9 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   return history_.back();
 }
 
-const Estimate& Pipeline::IdentifyNow(bool full) {
+const Estimate& Pipeline::IdentifyNow(bool final) {
   const WindowSnapshot snap = Snapshot();
-  return Accept(snap, Fit(identifier_, snap, WarmStart(), full ? nullptr : Prior()));
+  return Accept(snap, Fit(identifier_, snap, WarmStart(), Prior(), final || ExactDue()));
 }
 
 }  // namespace ndsid::pipeline

@@ -270,9 +270,9 @@ struct Daemon::Impl {
     // The worker owns copies of everything it touches (snapshot, identifier, warm start) and shares
     // the incremental prior, which is immutable.
     j.result = std::async(std::launch::async, [snap = j.snap, identifier = pipe().identifier(), warm = pipe().WarmStart(),
-                                               prior = pipe().Prior()] {
+                                               prior = pipe().Prior(), exact = pipe().ExactDue()] {
       try {
-        return pipeline::Pipeline::Fit(identifier, *snap, warm, prior);
+        return pipeline::Pipeline::Fit(identifier, *snap, warm, prior, exact);
       } catch (const std::exception& e) {
         identify::IdentificationResult r;
         r.valid = false;
@@ -487,7 +487,7 @@ struct Daemon::Impl {
       AcceptJob();
     }
     pipe().Finish();
-    pipe().IdentifyNow(true);  // the final fit: the whole window
+    pipe().IdentifyNow(true);  // the final fit: the whole window's optimum
     ++identifications;
     final_estimate = pipe().last_estimate();
     const std::string line = FinalLine(final_estimate, pipe());

@@ -133,10 +133,10 @@ struct IdentificationConfig {
   // is configured and [a_y] otherwise; this struct's (for code that builds a config) is a_y alone.
   bool yaw_rate_output = false;
   // Incremental re-identification (docs/incremental.md): each periodic update fits the new data
-  // plus the quadratic prior of the data already fitted; a prior segment is simulated again when
+  // plus the quadratic prior of the data already fitted; a prior segment is relinearised when
   // the estimate moved more than relinearize_sigma of the prior's standard deviation from its
   // linearisation point; every full_refit_every-th update (0: never on a schedule) and the final
-  // fit at the end of data refit the whole window.
+  // fit at the end of data relinearise every chunk: the whole window's optimum.
   bool incremental = true;
   double relinearize_sigma = 2.0;
   int full_refit_every = 36;

@@ -127,14 +127,19 @@ struct IdentificationResult {
 };
 
 // Incremental re-identification (docs/incremental.md): fit only the data the prior does not
-// hold, plus the prior's quadratic; a segment of the prior is simulated again (relinearised)
-// when the estimate lies more than relinearize_sigma of the prior's own standard deviation from
-// its chunks' linearisation point, before or after the solve. Without a usable prior (none, or
-// built for another model, scaling, chunking or outputs) the fit covers the whole window.
+// hold, plus the prior's quadratic; a segment of the prior is relinearised in place (its chunks
+// simulated once at the estimate, their quadratics replaced) when the estimate lies more than
+// relinearize_sigma of the prior's own standard deviation from its chunks' linearisation point,
+// before or after the solve. Without a usable prior (none, or built for another model, scaling,
+// chunking or outputs) the fit covers the whole window.
 struct IncrementalUpdate {
   std::shared_ptr<const LinearizedWindow> prior;
   double relinearize_sigma = 2.0;
   bool keep = true;  // return the linearisation (IdentificationResult::linearized)
+  // Every prior chunk relinearised until the estimate moves less than 0.05 of its standard
+  // deviation from their points: the whole window's optimum and statistics without refitting it
+  // from scratch (the final fit and the scheduled refits).
+  bool exact = false;
 };
 
 class Identifier {

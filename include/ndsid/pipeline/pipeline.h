@@ -74,18 +74,23 @@ class Pipeline {
   // Fits a snapshot (may run on a worker thread; touches no pipeline state), incrementally on
   // top of `prior` (Prior()) when given, else over the whole window; with
   // identification.incremental the result carries its linearisation for the next update.
+  // exact: every prior chunk relinearised at the solution (identify::IncrementalUpdate::exact).
   static identify::IdentificationResult Fit(const identify::Identifier& identifier, const WindowSnapshot& snap,
                                             const std::optional<std::vector<double>>& warm_start,
-                                            std::shared_ptr<const identify::LinearizedWindow> prior = nullptr);
+                                            std::shared_ptr<const identify::LinearizedWindow> prior = nullptr,
+                                            bool exact = false);
   // Records a finished fit: updates adequacy, the last estimate and the incremental prior
   // (reading-thread side).
   const Estimate& Accept(const WindowSnapshot& snap, identify::IdentificationResult fit);
-  // Snapshot + Fit + Accept in one call (the CLI); full: refit the whole window (the final fit).
-  const Estimate& IdentifyNow(bool full = false);
+  // Snapshot + Fit + Accept in one call (the CLI); final: the whole window's optimum (the final
+  // fit; an exact update on the prior when there is one, else the whole window refitted).
+  const Estimate& IdentifyNow(bool final = false);
   // The prior for the next periodic fit (docs/incremental.md): the last usable fit's
-  // linearisation, or nothing when identification.incremental is off or a full refit is due
-  // (every identification.full_refit_every-th update).
+  // linearisation, or nothing when identification.incremental is off.
   std::shared_ptr<const identify::LinearizedWindow> Prior() const;
+  // Whether the next periodic update is a scheduled exact one (every
+  // identification.full_refit_every-th update relinearises every chunk of the prior).
+  bool ExactDue() const;
   const std::shared_ptr<const identify::LinearizedWindow>& linearized() const { return linearized_; }
   // Learned state: the prior restored from a persisted state (checked for the model and
   // scaling by the identifier, which ignores an incompatible one).
