@@ -985,6 +985,11 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   options.parameter_tolerance = 1e-10;
   options.gradient_tolerance = 1e-12;
   options.logging_type = ceres::SILENT;
+  // No projected line search after each trust-region step: Ceres runs one for every problem
+  // with bounds, evaluating the cost and its Jacobian at the trial step before the step's own
+  // evaluation, and it nearly always keeps the full step. The bounds still hold through the
+  // step's projection, and the active set holds parameters that settle on them.
+  options.max_num_line_search_step_size_iterations = 0;
   ceres::Solver::Summary summary;
   // Every solve holds the parameters that settle on a bound (active_set.h): Ceres's projected
   // steps crawl there. Returns the iterations of all its rounds.
