@@ -159,6 +159,46 @@ void Linearize(LinearizedChunk& lc, const std::vector<double>& theta, const std:
   }
 }
 
+// Squared errors of the simulated outputs against the measured ones, summed after each chunk's
+// burn-in: a_y over every chunk and, with yaw_rate, the yaw rate over the chunks that have one.
+// Each chunk is simulated once, on `threads` threads; the sums add up in chunk order.
+struct ErrorSums {
+  double a = 0, r = 0;
+  size_t na = 0, nr = 0;
+};
+ErrorSums SimulatedErrorSums(const model::ModelSpec& spec, double wheelbase_m, const std::vector<Chunk>& chunks,
+                             const std::vector<double>& params, double burn_in_s, bool yaw_rate, int threads) {
+  std::vector<ErrorSums> per_chunk(chunks.size());
+  ParallelFor(chunks.size(), threads, [&](size_t i) {
+    const Chunk& c = chunks[i];
+    const bool yaw = yaw_rate && c.has_yaw_rate();
+    std::vector<double> a_y(c.n), yr(yaw ? c.n : 0);
+    model::SimulateModel(spec, c.ParamsFor(params).data(), wheelbase_m, c.Inputs(), a_y.data(), nullptr,
+                         yaw ? yr.data() : nullptr);
+    ErrorSums& x = per_chunk[i];
+    for (size_t k = BurnInSamples(c, burn_in_s); k < c.n; ++k) {
+      const double e = c.samples[k].lat_accel_mps2 - a_y[k];
+      x.a += e * e;
+      ++x.na;
+      if (!yaw) continue;
+      const double er = c.samples[k].yaw_rate_radps - yr[k];
+      x.r += er * er;
+      ++x.nr;
+    }
+  });
+  ErrorSums total;
+  for (const ErrorSums& x : per_chunk) {
+    total.a += x.a;
+    total.r += x.r;
+    total.na += x.na;
+    total.nr += x.nr;
+  }
+  return total;
+}
+
+// The root mean square of n values from their sum of squares; -1 without values.
+double RootMean(double sum, size_t n) { return n ? std::sqrt(sum / static_cast<double>(n)) : -1.0; }
+
 // Adds every series' autocorrelation sums into acf; returns the number of residuals.
 double AddSeriesSums(const std::vector<std::vector<double>>& series, std::vector<double>& acf) {
   double n = 0;
@@ -236,41 +276,17 @@ double Identifier::Rmse(const model::Params<double>& p, const SegmentList& segme
 }
 
 double Identifier::Rmse(const std::vector<double>& params, const SegmentList& segments, size_t* count) const {
-  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_overrides_);
-  double sum = 0;
-  size_t n = 0;
-  std::vector<double> a_y;
-  for (const Chunk& c : chunks) {
-    a_y.resize(c.n);
-    model::SimulateModel(spec_, c.ParamsFor(params).data(), wheelbase_m_, c.Inputs(), a_y.data());
-    for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
-      const double e = c.samples[k].lat_accel_mps2 - a_y[k];
-      sum += e * e;
-      ++n;
-    }
-  }
-  if (count) *count = n;
-  return n ? std::sqrt(sum / static_cast<double>(n)) : -1.0;
+  const ErrorSums s = SimulatedErrorSums(spec_, wheelbase_m_, MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_overrides_),
+                                         params, config_.burn_in_s, false, config_.threads);
+  if (count) *count = s.na;
+  return RootMean(s.a, s.na);
 }
 
 double Identifier::RmseYawRate(const std::vector<double>& params, const SegmentList& segments, size_t* count) const {
-  const auto chunks = MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_overrides_);
-  double sum = 0;
-  size_t n = 0;
-  std::vector<double> a_y, r;
-  for (const Chunk& c : chunks) {
-    if (!c.has_yaw_rate()) continue;
-    a_y.resize(c.n);
-    r.resize(c.n);
-    model::SimulateModel(spec_, c.ParamsFor(params).data(), wheelbase_m_, c.Inputs(), a_y.data(), nullptr, r.data());
-    for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
-      const double e = c.samples[k].yaw_rate_radps - r[k];
-      sum += e * e;
-      ++n;
-    }
-  }
-  if (count) *count = n;
-  return n ? std::sqrt(sum / static_cast<double>(n)) : -1.0;
+  const ErrorSums s = SimulatedErrorSums(spec_, wheelbase_m_, MakeChunks(segments, config_.chunk_s, config_.burn_in_s, drive_overrides_),
+                                         params, config_.burn_in_s, true, config_.threads);
+  if (count) *count = s.nr;
+  return RootMean(s.r, s.nr);
 }
 
 IdentificationResult Identifier::Identify(const SegmentList& training, const SegmentList& validation,
@@ -546,9 +562,13 @@ IdentificationResult Identifier::IdentifyPerDrive(const SegmentList& training, c
   }
   work.set_drive_values(values_out);
   fit.drive_values = values_out;
-  if (!validation.empty()) {
-    fit.rmse_validation_mps2 = work.Rmse(shared, validation, &fit.residuals_validation);
-    if (fit.yaw_rate_output) fit.rmse_validation_yaw_radps = work.RmseYawRate(shared, validation);
+  if (!validation.empty()) {  // both outputs' held-out RMSE from one simulation of each chunk
+    const ErrorSums s = SimulatedErrorSums(
+        work.spec_, work.wheelbase_m_, MakeChunks(validation, work.config_.chunk_s, work.config_.burn_in_s, work.drive_overrides_),
+        shared, work.config_.burn_in_s, fit.yaw_rate_output, work.config_.threads);
+    fit.residuals_validation = s.na;
+    fit.rmse_validation_mps2 = RootMean(s.a, s.na);
+    if (fit.yaw_rate_output) fit.rmse_validation_yaw_radps = RootMean(s.r, s.nr);
   }
   fit.identifiability.notes.push_back(
       "per drive (" + names + "): a value per drive; the parameter vector and EG describe drive " +
@@ -819,6 +839,18 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // quadratics, a Gauss-Newton step on those chunks; where that step leaves them again, the
   // checks after the solve relinearise them at the new point. At a solution where no chunk is
   // stale the scores of all chunks sum to zero as in the whole-window fit.
+  // One chunk's weighted residuals e and Jacobian jac (row-major, m x np) at theta; false where
+  // they cannot be evaluated or are not finite.
+  auto evaluate_at_theta = [&](const Chunk& c, std::vector<double>& e, std::vector<double>& jac) {
+    const auto cost = MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
+    const size_t m = static_cast<size_t>(cost->num_residuals());
+    e.resize(m);
+    jac.resize(m * static_cast<size_t>(np));
+    const double* pp[] = {theta.data()};
+    double* jj[] = {jac.data()};
+    const auto finite = [](double x) { return std::isfinite(x); };
+    return cost->Evaluate(pp, e.data(), jj) && std::all_of(e.begin(), e.end(), finite) && std::all_of(jac.begin(), jac.end(), finite);
+  };
   std::shared_ptr<LinearizedWindow> relinearized;
   auto relinearize = [&](const std::vector<size_t>& stale) -> bool {
     if (stale.empty()) return true;
@@ -839,17 +871,13 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     std::vector<char> ok(jobs.size(), 0);
     ParallelFor(jobs.size(), config_.threads, [&](size_t j) {
       const Chunk& c = *jobs[j].first;
-      const size_t burn = BurnInSamples(c, config_.burn_in_s);
-      const auto cost = MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, weights);
-      const int m = cost->num_residuals();
-      std::vector<double> e(static_cast<size_t>(m)), jac(static_cast<size_t>(m) * np);
-      const double* pp[] = {theta.data()};
-      double* jj[] = {jac.data()};
-      if (!cost->Evaluate(pp, e.data(), jj)) return;
+      std::vector<double> e, jac;
+      if (!evaluate_at_theta(c, e, jac)) return;
+      const long m = static_cast<long>(e.size());
       const Eigen::Map<const RowMajorMatrix> J(jac.data(), m, np);
       const Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
-      if (!ev.allFinite() || !J.allFinite()) return;
-      Linearize(*jobs[j].second, theta, e, J, J.transpose() * J, J.transpose() * ev, c.n - burn, *weights, two_outputs);
+      Linearize(*jobs[j].second, theta, e, J, J.transpose() * J, J.transpose() * ev, c.n - BurnInSamples(c, config_.burn_in_s),
+                *weights, two_outputs);
       ok[j] = 1;
     });
     r.chunks_relinearized += jobs.size();
@@ -1088,14 +1116,11 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
         it = cut_segments.emplace(from_prior[i].seg, MakeChunks({from_prior[i].seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_)).first;
       if (k >= it->second.size()) continue;
       const LinearizedChunk& lc = from_prior[i].lin->chunks[k];
-      auto cost = MakeChunkCost(it->second[k], BurnInSamples(it->second[k], config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
-      const int m = cost->num_residuals();
-      std::vector<double> e(static_cast<size_t>(m)), jac(static_cast<size_t>(m) * np);
-      const double* pp[] = {theta.data()};
-      double* jj[] = {jac.data()};
-      if (!cost->Evaluate(pp, e.data(), jj)) return false;
-      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, np);
-      const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> hc(lc.jtj.data(), np, np);
+      std::vector<double> e, jac;
+      if (!evaluate_at_theta(it->second[k], e, jac)) return false;
+      const long m = static_cast<long>(e.size());
+      const Eigen::Map<const RowMajorMatrix> J(jac.data(), m, np);
+      const Eigen::Map<const RowMajorMatrix> hc(lc.jtj.data(), np, np);
       const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(lc.theta.data(), np);
       dg += J.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data(), m) - (Eigen::Map<const Eigen::VectorXd>(lc.score.data(), np) + hc * d);
       ++sampled;
@@ -1394,42 +1419,12 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
   }
 
-  if (!validation.empty()) {
-    // The held-out RMSE of a_y (and of the yaw rate with both outputs): each validation chunk
-    // simulated once, on config_.threads threads, its sums added in chunk order.
-    const std::vector<double> values = r.AllValues();
-    const auto vchunks = MakeChunks(validation, config_.chunk_s, config_.burn_in_s, drive_overrides_);
-    struct Sums {
-      double a = 0, r = 0;
-      size_t na = 0, nr = 0;
-    };
-    std::vector<Sums> sums(vchunks.size());
-    ParallelFor(vchunks.size(), config_.threads, [&](size_t i) {
-      const Chunk& c = vchunks[i];
-      const bool yaw = two_outputs && c.has_yaw_rate();
-      std::vector<double> a_y(c.n), yr(yaw ? c.n : 0);
-      model::SimulateModel(spec_, c.ParamsFor(values).data(), wheelbase_m_, c.Inputs(), a_y.data(), nullptr,
-                           yaw ? yr.data() : nullptr);
-      for (size_t k = BurnInSamples(c, config_.burn_in_s); k < c.n; ++k) {
-        const double e = c.samples[k].lat_accel_mps2 - a_y[k];
-        sums[i].a += e * e;
-        ++sums[i].na;
-        if (!yaw) continue;
-        const double er = c.samples[k].yaw_rate_radps - yr[k];
-        sums[i].r += er * er;
-        ++sums[i].nr;
-      }
-    });
-    Sums total;
-    for (const Sums& x : sums) {
-      total.a += x.a;
-      total.r += x.r;
-      total.na += x.na;
-      total.nr += x.nr;
-    }
-    r.residuals_validation = total.na;
-    r.rmse_validation_mps2 = total.na ? std::sqrt(total.a / static_cast<double>(total.na)) : -1.0;
-    if (two_outputs) r.rmse_validation_yaw_radps = total.nr ? std::sqrt(total.r / static_cast<double>(total.nr)) : -1.0;
+  if (!validation.empty()) {  // both outputs' held-out RMSE from one simulation of each chunk
+    const ErrorSums s = SimulatedErrorSums(spec_, wheelbase_m_, MakeChunks(validation, config_.chunk_s, config_.burn_in_s, drive_overrides_),
+                                           r.AllValues(), config_.burn_in_s, two_outputs, config_.threads);
+    r.residuals_validation = s.na;
+    r.rmse_validation_mps2 = RootMean(s.a, s.na);
+    if (two_outputs) r.rmse_validation_yaw_radps = RootMean(s.r, s.nr);
   }
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);

@@ -107,11 +107,11 @@ struct IdentificationResult {
   // Per-drive parameters only: every such parameter on the training drives, then the held-out ones.
   std::vector<DriveValue> drive_values;
   // How the fit was computed (docs/incremental.md): "full window", or "incremental" with the
-  // chunks simulated (new data and relinearised ones) and those taken from the prior.
+  // chunks simulated (the new data) and those taken from the prior.
   std::string update = "full window";
   size_t chunks_simulated = 0;
   size_t chunks_from_prior = 0;
-  size_t chunks_relinearized = 0;  // chunks of the prior simulated again (their point was left)
+  size_t chunks_relinearized = 0;  // prior chunks relinearised in place, counted at every round
   // Every training chunk's quadratic at this fit's estimate (or kept from the prior): the next
   // incremental update's prior. Set when asked for (IncrementalUpdate::keep) and the fit is usable.
   std::shared_ptr<const LinearizedWindow> linearized;
