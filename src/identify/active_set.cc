@@ -54,7 +54,7 @@ ceres::Manifold* HoldManifold(int np, const std::vector<int>& fixed, const std::
 
 ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::Problem& problem, double* theta, int np,
                                   const std::vector<int>& fixed, ceres::Solver::Summary& summary, int hold_after,
-                                  int max_rounds) {
+                                  int max_rounds, const std::vector<int>& start_held) {
   ActiveSetSolve out;
   if (max_rounds <= 0) max_rounds = 2 * np + 2;
   const size_t n = static_cast<size_t>(np);
@@ -67,6 +67,12 @@ ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::
   for (int i : fixed) movable[static_cast<size_t>(i)] = false;
   const size_t n_movable = static_cast<size_t>(std::count(movable.begin(), movable.end(), true));
   std::vector<int> held;
+  for (int i : start_held) {
+    const size_t k = static_cast<size_t>(i);
+    if (i >= 0 && k < n && movable[k] && OnBound(theta, lower, upper, k) && std::find(held.begin(), held.end(), i) == held.end())
+      held.push_back(i);
+  }
+  std::sort(held.begin(), held.end());
   for (;;) {
     if (out.rounds >= max_rounds) {  // no KKT point in max_rounds: a plain projected solve finishes
       problem.SetManifold(theta, HoldManifold(np, fixed, {}));

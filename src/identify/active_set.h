@@ -36,11 +36,13 @@ struct ActiveSetSolve {
 // - the problem is solved again until the held set no longer changes: the KKT conditions of
 //   the box.
 // After `max_rounds` solves (default 2 np + 2) without that, one plain projected solve finishes.
+// `start_held` (a warm start's active set, e.g. the last solution's) are held from the first
+// round where they sit on a bound at the start; the KKT check releases them as any other.
 //
 // On return the problem's manifold is the SubsetManifold of `fixed` (or none), and `summary` is
 // that of the last solve.
 ActiveSetSolve SolveWithActiveSet(const ceres::Solver::Options& options, ceres::Problem& problem, double* theta, int np,
                                   const std::vector<int>& fixed, ceres::Solver::Summary& summary, int hold_after = 2,
-                                  int max_rounds = 0);
+                                  int max_rounds = 0, const std::vector<int>& start_held = {});
 
 }  // namespace ndsid::identify

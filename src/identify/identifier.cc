@@ -110,9 +110,16 @@ double NoiseLevel(const std::vector<std::unique_ptr<CostFn>>& costs, const std::
 constexpr double kRelinearizeStep = 0.25;
 constexpr size_t kEgCheckChunks = 32;
 constexpr double kEgCheck = 0.15;
+// ... and the errors of their predicted J'J and scores to change EG's variance by at most this
+// share (its standard deviation by about half of it).
+constexpr double kSigmaCheck = 0.1;
 // Rounds of in-place relinearisation after the first incremental solve; an update still unsettled
 // is fitted as the whole window.
 constexpr int kRelinearizeRounds = 4;
+// A first EG check that finds the quadratics' error moving EG by more than this many of its
+// standard deviations: the rounds (undamped Gauss-Newton steps on the whole window) seldom settle
+// from so far, and the update is fitted as the whole window at once.
+constexpr double kEgCheckHopeless = 1.0;
 // An exact update (IncrementalUpdate::exact) relinearises every prior chunk the estimate lies
 // further than this many of its standard deviations from.
 constexpr double kExactSigma = 0.05;
@@ -617,6 +624,14 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   IdentificationResult r;
   r.model = spec_.Describe();
   const auto t_start = std::chrono::steady_clock::now();
+  // Wall time of the fit's phases, for the debug log (setup, solve, checks, optimum, held-out).
+  double phase[5] = {0, 0, 0, 0, 0};
+  auto lap = std::chrono::steady_clock::now();
+  auto mark = [&](int k) {
+    const auto now = std::chrono::steady_clock::now();
+    phase[k] += std::chrono::duration<double>(now - lap).count();
+    lap = now;
+  };
   const int np = spec_.num_params();
   // Box, initial values and scaling of every parameter: base from configuration, effects from
   // the effect library. theta_i = p_i / scale_i keeps every unknown O(1) for the solver.
@@ -1021,8 +1036,17 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   ceres::Solver::Summary summary;
   // Every solve holds the parameters that settle on a bound (active_set.h): Ceres's projected
   // steps crawl there. Returns the iterations of all its rounds.
+  // An incremental update starts at the last solution: the parameters it left on a bound are
+  // held from the first round (the KKT check releases them), and each solve of the update starts
+  // with the active set of the one before.
+  std::vector<int> active;
+  if (prior) {
+    for (int i : free)
+      if (theta[i] <= bounds[i].lower / scale[i] || theta[i] >= bounds[i].upper / scale[i]) active.push_back(i);
+  }
   auto solve = [&](const ceres::Solver::Options& o, ceres::Problem& pr, ceres::Solver::Summary& s) {
-    const ActiveSetSolve a = SolveWithActiveSet(o, pr, theta.data(), np, fixed, s);
+    const ActiveSetSolve a = SolveWithActiveSet(o, pr, theta.data(), np, fixed, s, 2, 0, prior ? active : std::vector<int>{});
+    if (prior) active = a.held;
     if (a.rounds > 1)
       spdlog::debug("active set: {} rounds, {} iterations, {} held at the end, {} released{}", a.rounds, a.iterations,
                     a.held.size(), a.released.size(), a.fallback ? ", finished by a plain projected solve" : "");
@@ -1076,6 +1100,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
                   ceres::TerminationTypeToString(coarse_summary.termination_type), cost_start, cost_coarse,
                   use ? "used" : "the start kept");
   }
+  mark(0);
   r.iterations = solve(options, problem, summary);
   if (two_outputs && !prior && summary.IsSolutionUsable() && set_weights()) {
     // The outputs' noise levels at the solution differ from those at the start: refit once.
@@ -1099,70 +1124,139 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // simulated at the solution, the error of their predicted scores (J'e) is scaled to the whole
   // prior, and the Newton step it implies moves EG by `shift`; beyond kEgCheck of EG's standard
   // deviation, every prior segment is relinearised.
-  auto eg_check = [&]() -> bool {
+  struct CheckResult {
+    bool eg = true;     // the quadratics' error moves EG by at most kEgCheck sigma
+    bool sigma = true;  // ... and its variance by at most kSigmaCheck
+    double shift = 0;   // that move [sigma]
+  };
+  auto eg_check = [&]() -> CheckResult {
     std::vector<std::pair<size_t, size_t>> all;  // (prior segment, chunk)
     for (size_t i = 0; i < from_prior.size(); ++i)
       for (size_t k = 0; k < from_prior[i].lin->chunks.size(); ++k) all.emplace_back(i, k);
-    if (all.empty()) return true;
-    const size_t step = std::max<size_t>(1, all.size() / kEgCheckChunks);
-    Eigen::VectorXd dg = Eigen::VectorXd::Zero(np);
-    const Eigen::MatrixXd h = prior_jtj();
-    size_t sampled = 0;
-    std::map<const stats::Segment*, std::vector<Chunk>> cut_segments;
-    for (size_t a = step / 2; a < all.size(); a += step) {
-      const auto [i, k] = all[a];
-      auto it = cut_segments.find(from_prior[i].seg);
-      if (it == cut_segments.end())
-        it = cut_segments.emplace(from_prior[i].seg, MakeChunks({from_prior[i].seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_)).first;
-      if (k >= it->second.size()) continue;
-      const LinearizedChunk& lc = from_prior[i].lin->chunks[k];
-      std::vector<double> e, jac;
-      if (!evaluate_at_theta(it->second[k], e, jac)) return false;
-      const long m = static_cast<long>(e.size());
-      const Eigen::Map<const RowMajorMatrix> J(jac.data(), m, np);
-      const Eigen::Map<const RowMajorMatrix> hc(lc.jtj.data(), np, np);
-      const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(lc.theta.data(), np);
-      dg += J.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data(), m) - (Eigen::Map<const Eigen::VectorXd>(lc.score.data(), np) + hc * d);
-      ++sampled;
-    }
-    if (sampled == 0) return true;
-    dg *= static_cast<double>(all.size()) / static_cast<double>(sampled);
+    if (all.empty()) return {};
+    // The EG direction: v = H^-1 g over the free parameters (H the prior's J'J, g EG's
+    // gradient), so that v . (score error) is the Newton step's move of EG, and v'Hv = g'H^-1 g.
     std::vector<int> fr;
     for (int i = 0; i < np; ++i)
       if (!bounds[i].fixed) fr.push_back(i);
     const int nf = static_cast<int>(fr.size());
-    Eigen::MatrixXd hf(nf, nf);
-    Eigen::VectorXd gf(nf), dgf(nf);
+    const Eigen::MatrixXd h = prior_jtj();
     std::vector<bool> fixed_params(static_cast<size_t>(np));
     for (int i = 0; i < np; ++i) fixed_params[static_cast<size_t>(i)] = bounds[i].fixed;
     const Eigen::VectorXd eg_g = EgGradientTheta(theta, scale, wheelbase_m_, fixed_params);
+    Eigen::MatrixXd hf(nf, nf);
+    Eigen::VectorXd gf(nf);
     for (int a = 0; a < nf; ++a) {
       gf[a] = eg_g[fr[a]];
-      dgf[a] = dg[fr[a]];
       for (int b = 0; b < nf; ++b) hf(a, b) = h(fr[a], fr[b]);
     }
-    const Eigen::MatrixXd hinv = hf.completeOrthogonalDecomposition().pseudoInverse();
-    const double shift = std::abs(gf.dot(hinv * dgf));
-    const double sd = std::sqrt(std::max(0.0, prior_level() * gf.dot(hinv * gf)));
-    spdlog::debug("incremental: EG check over {} of {} prior chunks: the quadratics' error moves EG by {:.3g} sigma", sampled,
-                  all.size(), sd > 0 ? shift / sd : 0.0);
-    return sd > 0 && shift <= kEgCheck * sd;
+    const Eigen::VectorXd vf = hf.completeOrthogonalDecomposition().pseudoInverse() * gf;
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(np);
+    for (int a = 0; a < nf; ++a) v[fr[a]] = vf[a];
+    const double v_max = v.lpNorm<Eigen::Infinity>();
+    const double g_hinv_g = gf.dot(vf);
+    const double sd = std::sqrt(std::max(0.0, prior_level() * g_hinv_g));
+    if (!(v_max > 0) || !(sd > 0)) return {false, false};
+    // Each sampled chunk simulated at theta and at theta + eps v / |v|: its residuals e and the
+    // directional derivative J v (forward difference), against its quadratic's predictions:
+    //   v . score  (the EG check)   and  v' J'J v  (the bread of EG's variance).
+    const size_t step = std::max<size_t>(1, all.size() / kEgCheckChunks);
+    std::vector<size_t> picks;
+    for (size_t a = step / 2; a < all.size(); a += step) picks.push_back(a);
+    std::map<const stats::Segment*, std::vector<Chunk>> cut_segments;
+    for (size_t a : picks) {
+      const stats::Segment* seg = from_prior[all[a].first].seg;
+      if (!cut_segments.count(seg)) cut_segments.emplace(seg, MakeChunks({seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_));
+    }
+    constexpr double kEps = 1e-6;  // theta is O(1): a relative step
+    std::vector<double> moved(theta);
+    for (int i = 0; i < np; ++i) moved[static_cast<size_t>(i)] += kEps * v[i] / v_max;
+    struct Sample {
+      bool used = false, ok = true;
+      double vs = 0, vs_pred = 0, vhv = 0, vhv_pred = 0;
+    };
+    std::vector<Sample> samples(picks.size());
+    ParallelFor(picks.size(), config_.threads, [&](size_t j) {
+      const auto [i, k] = all[picks[j]];
+      const std::vector<Chunk>& cuts = cut_segments.at(from_prior[i].seg);
+      if (k >= cuts.size()) return;
+      Sample& out = samples[j];
+      out.used = true;
+      const Chunk& c = cuts[k];
+      const auto cost = MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
+      const size_t m = static_cast<size_t>(cost->num_residuals());
+      std::vector<double> e0(m), e1(m);
+      const double* p0[] = {theta.data()};
+      const double* p1[] = {moved.data()};
+      const auto finite = [](double x) { return std::isfinite(x); };
+      if (!cost->Evaluate(p0, e0.data(), nullptr) || !cost->Evaluate(p1, e1.data(), nullptr) ||
+          !std::all_of(e0.begin(), e0.end(), finite) || !std::all_of(e1.begin(), e1.end(), finite)) {
+        out.ok = false;
+        return;
+      }
+      const Eigen::Map<const Eigen::VectorXd> a0(e0.data(), static_cast<long>(m)), a1(e1.data(), static_cast<long>(m));
+      const Eigen::VectorXd jv = (a1 - a0) * (v_max / kEps);
+      const LinearizedChunk& lc = from_prior[i].lin->chunks[k];
+      const Eigen::Map<const RowMajorMatrix> hc(lc.jtj.data(), np, np);
+      const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(lc.theta.data(), np);
+      out.vs = jv.dot(a0);
+      out.vs_pred = v.dot(Eigen::Map<const Eigen::VectorXd>(lc.score.data(), np) + hc * d);
+      out.vhv = jv.squaredNorm();
+      out.vhv_pred = v.dot(hc * v);
+    });
+    size_t sampled = 0;
+    double shift = 0, bread = 0, meat = 0, meat_pred = 0;
+    for (const Sample& x : samples) {
+      if (!x.ok) return {false, false};
+      if (!x.used) continue;
+      ++sampled;
+      shift += x.vs - x.vs_pred;
+      bread += x.vhv - x.vhv_pred;
+      meat += x.vs * x.vs - x.vs_pred * x.vs_pred;
+      meat_pred += x.vs_pred * x.vs_pred;
+    }
+    if (sampled == 0) return {};
+    const double up = static_cast<double>(all.size()) / static_cast<double>(sampled);
+    // EG moves by v . (the scores' error), scaled to the whole prior; EG's variance changes by
+    // the relative errors of its bread (g'H^-1 g = v'Hv) and of its cluster-robust meat.
+    shift = std::abs(shift * up) / sd;
+    bread = std::abs(bread * up) / g_hinv_g;
+    meat = meat_pred > 0 ? std::abs(meat) / meat_pred : 0.0;
+    spdlog::debug("incremental: EG check over {} of {} prior chunks: the quadratics' error moves EG by {:.3g} sigma, its variance "
+                  "by {:.3g} (bread) and {:.3g} (cluster meat)", sampled, all.size(), shift, bread, meat);
+    return {shift <= kEgCheck, bread <= kSigmaCheck && meat <= kSigmaCheck, shift};
   };
   bool settled = !prior;
+  mark(1);
   for (int round = 0; prior && summary.IsSolutionUsable(); ++round) {
     std::vector<size_t> stale = stale_segments(theta);
-    if (stale.empty() && !eg_check()) {
+    const bool checked = stale.empty();
+    const CheckResult check = checked ? eg_check() : CheckResult{};
+    if (!check.eg || !check.sigma) {
       for (size_t i = 0; i < from_prior.size(); ++i) stale.push_back(i);
     }
     if (stale.empty()) {
       settled = true;
       break;
     }
+    if (checked && round == 0 && !(check.shift <= kEgCheckHopeless))
+      return whole_window("incremental: the EG check found the prior's quadratics far off, so fitted as the whole window");
+    if (checked && check.eg) {
+      // Only EG's variance is off: every prior chunk is relinearised at the solution for the
+      // statistics below, without another solve (the step the fresh quadratics imply moves EG
+      // by less than kEgCheck of its standard deviation: the check above).
+      if (!relinearize(stale)) return whole_window(kNotRelinearized);
+      settled = true;
+      break;
+    }
     if (round == kRelinearizeRounds) break;
     if (!relinearize(stale)) return whole_window(kNotRelinearized);
     set_quadratic();
+    mark(2);
     r.iterations += solve(options, problem, summary);
+    mark(1);
   }
+  mark(2);
   if (!settled && summary.IsSolutionUsable())
     return whole_window("incremental: the estimate still left the prior's linearisation points after the relinearisation rounds, "
                         "so fitted as the whole window");
@@ -1419,6 +1513,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
   }
 
+  mark(3);
   if (!validation.empty()) {  // both outputs' held-out RMSE from one simulation of each chunk
     const ErrorSums s = SimulatedErrorSums(spec_, wheelbase_m_, MakeChunks(validation, config_.chunk_s, config_.burn_in_s, drive_overrides_),
                                            r.AllValues(), config_.burn_in_s, two_outputs, config_.threads);
@@ -1426,7 +1521,10 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     r.rmse_validation_mps2 = RootMean(s.a, s.na);
     if (two_outputs) r.rmse_validation_yaw_radps = RootMean(s.r, s.nr);
   }
+  mark(4);
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  spdlog::debug("fit times: setup {:.3f} s, solve {:.3f} s, checks and relinearisation {:.3f} s, statistics at the optimum {:.3f} s, "
+                "held-out RMSE {:.3f} s", phase[0], phase[1], phase[2], phase[3], phase[4]);
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);
   if (!r.valid) r.reason = "non-finite EG or standard error";
   if (prior) {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <chrono>
 #include <map>
 #include <set>
 
@@ -281,8 +282,17 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
 }
 
 const Estimate& Pipeline::IdentifyNow(bool final) {
+  const auto t0 = std::chrono::steady_clock::now();
   const WindowSnapshot snap = Snapshot();
-  return Accept(snap, Fit(identifier_, snap, WarmStart(), Prior(), final || ExactDue()));
+  const auto t1 = std::chrono::steady_clock::now();
+  identify::IdentificationResult fit = Fit(identifier_, snap, WarmStart(), Prior(), final || ExactDue());
+  const auto t2 = std::chrono::steady_clock::now();
+  const Estimate& e = Accept(snap, std::move(fit));
+  const auto t3 = std::chrono::steady_clock::now();
+  using S = std::chrono::duration<double>;
+  spdlog::debug("identification times: snapshot {:.3f} s, fit {:.3f} s, checks {:.3f} s", S(t1 - t0).count(), S(t2 - t1).count(),
+                S(t3 - t2).count());
+  return e;
 }
 
 }  // namespace ndsid::pipeline

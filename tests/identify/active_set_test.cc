@@ -153,6 +153,58 @@ TEST(ActiveSet, ReachesTheExactBoxOptimumOfCorrelatedParameters) {
   std::printf("projected solve alone ended > 1e-3 from the optimum in %d of 10 cases\n", plain_short);
 }
 
+// Catches: a warm start's active set (start_held) that is not honoured (the solve spends a
+// first round finding it again), or one that is kept where it is wrong (a parameter held on a
+// bound its gradient pulls away from). Warm-started at the exact optimum, the solve holds its
+// bounded parameters from the first round and ends there in one round; started with every
+// parameter on a bound and all of them in start_held, the KKT check releases the wrong ones and
+// the solve still reaches the exact optimum.
+TEST(ActiveSet, StartHeldIsTheWarmStartsActiveSetAndReleasedWhereWrong) {
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  int warm_cases = 0;
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    const int np = 4 + static_cast<int>(seed % 3);
+    const Case c = RandomCase(seed, np);
+    const Eigen::VectorXd exact = ExactBoxOptimum(c.a, c.b, c.lo, c.hi);
+    ASSERT_EQ(exact.size(), np);
+    std::vector<int> bounded, all;
+    for (int i = 0; i < np; ++i) {
+      all.push_back(i);
+      if (exact[i] <= c.lo[i] || exact[i] >= c.hi[i]) bounded.push_back(i);
+    }
+    if (bounded.empty()) continue;
+    ++warm_cases;
+    Residuals f(c.a, c.b, 0.0);
+    {  // warm: at the optimum, its active set held from the start
+      std::vector<double> x(exact.data(), exact.data() + np);
+      ceres::Problem p(po);
+      p.AddResidualBlock(&f, nullptr, x.data());
+      SetBox(p, x.data(), c);
+      ceres::Solver::Summary s;
+      const ActiveSetSolve a = SolveWithActiveSet(Options(), p, x.data(), np, {}, s, 2, 0, bounded);
+      EXPECT_EQ(a.rounds, 1) << "seed " << seed;
+      EXPECT_EQ(a.held, bounded) << "seed " << seed;
+      for (int i = 0; i < np; ++i) EXPECT_NEAR(x[static_cast<size_t>(i)], exact[i], 1e-5) << "seed " << seed << " x" << i;
+    }
+    {  // every parameter on its lower bound and held: the wrong ones are released
+      std::vector<double> x(static_cast<size_t>(np));
+      for (int i = 0; i < np; ++i) x[static_cast<size_t>(i)] = c.lo[i];
+      ceres::Problem p(po);
+      p.AddResidualBlock(&f, nullptr, x.data());
+      SetBox(p, x.data(), c);
+      ceres::Solver::Summary s;
+      const ActiveSetSolve a = SolveWithActiveSet(Options(), p, x.data(), np, {}, s, 2, 0, all);
+      EXPECT_TRUE(s.IsSolutionUsable()) << "seed " << seed;
+      EXPECT_FALSE(a.fallback) << "seed " << seed;
+      EXPECT_FALSE(a.released.empty()) << "seed " << seed;
+      for (int i = 0; i < np; ++i) EXPECT_NEAR(x[static_cast<size_t>(i)], exact[i], 1e-5) << "seed " << seed << " x" << i;
+      EXPECT_EQ(p.GetManifold(x.data()), nullptr) << "the parameters must be free again";
+    }
+  }
+  EXPECT_GE(warm_cases, 8);
+}
+
 // Catches: a fixed parameter moved, released or counted as held; the KKT check on a curved
 // (nonlinear) cost. The fixed parameter stays at its value, the rest reach the box optimum of
 // the problem with it fixed (checked against a projected solve from there that cannot improve).

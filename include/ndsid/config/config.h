@@ -138,7 +138,7 @@ struct IdentificationConfig {
   // linearisation point; every full_refit_every-th update (0: never on a schedule) and the final
   // fit at the end of data relinearise every chunk: the whole window's optimum.
   bool incremental = true;
-  double relinearize_sigma = 2.0;
+  double relinearize_sigma = 5.0;
   int full_refit_every = 36;
 };
 

@@ -134,7 +134,7 @@ struct IdentificationResult {
 // chunking or outputs) the fit covers the whole window.
 struct IncrementalUpdate {
   std::shared_ptr<const LinearizedWindow> prior;
-  double relinearize_sigma = 2.0;
+  double relinearize_sigma = 5.0;
   bool keep = true;  // return the linearisation (IdentificationResult::linearized)
   // Every prior chunk relinearised until the estimate moves less than 0.05 of its standard
   // deviation from their points: the whole window's optimum and statistics without refitting it
