@@ -1039,11 +1039,8 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // An incremental update starts at the last solution: the parameters it left on a bound are
   // held from the first round (the KKT check releases them), and each solve of the update starts
   // with the active set of the one before.
-  std::vector<int> active;
-  if (prior) {
-    for (int i : free)
-      if (theta[i] <= bounds[i].lower / scale[i] || theta[i] >= bounds[i].upper / scale[i]) active.push_back(i);
-  }
+  // (SolveWithActiveSet holds only those of start_held that sit on a bound.)
+  std::vector<int> active = prior ? free : std::vector<int>{};
   auto solve = [&](const ceres::Solver::Options& o, ceres::Problem& pr, ceres::Solver::Summary& s) {
     const ActiveSetSolve a = SolveWithActiveSet(o, pr, theta.data(), np, fixed, s, 2, 0, prior ? active : std::vector<int>{});
     if (prior) active = a.held;
@@ -1123,7 +1120,8 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // The quadratics are also checked where it matters, on EG: a sample of the prior's chunks is
   // simulated at the solution, the error of their predicted scores (J'e) is scaled to the whole
   // prior, and the Newton step it implies moves EG by `shift`; beyond kEgCheck of EG's standard
-  // deviation, every prior segment is relinearised.
+  // deviation, every prior segment is relinearised (and the update solved again). The same sample
+  // checks EG's variance (kSigmaCheck).
   struct CheckResult {
     bool eg = true;     // the quadratics' error moves EG by at most kEgCheck sigma
     bool sigma = true;  // ... and its variance by at most kSigmaCheck
