@@ -42,5 +42,17 @@ for r in $ONLY; do
     periodic-full) run periodic-full --config "$WORK_DIR/full.yaml" ;;
   esac
 done
+# The pass without fits: --final-only's time line less its one fit. Each run's time line is the
+# replay's own (from opening the logs to the final fit), without start-up and report writing.
+timeline() { grep -m1 '  time:' "$WORK_DIR/$1.out" | sed -E 's/.*time: ([0-9.]+) s wall.*/\1/'; }
+finalfit() { grep -m1 '  time:' "$WORK_DIR/$1.out" | sed -E 's/.*final fit ([0-9.]+) s.*/\1/'; }
+if [[ " $ONLY " == *" final-only "* ]]; then
+  pass=$(awk -v w="$(timeline final-only)" -v f="$(finalfit final-only)" 'BEGIN { printf "%.1f", w - f }')
+  echo "pass without fits (final-only's time line less its fit): $pass s"
+  for r in periodic-incremental periodic-full; do
+    [[ " $ONLY " == *" $r "* ]] || continue
+    awk -v w="$(timeline $r)" -v p="$pass" -v r="$r" 'BEGIN { printf "%s: time line %.1f s = %.1fx the pass without fits\n", r, w, w / p }'
+  done
+fi
 /usr/bin/time -f "%e" -o "$WORK_DIR/time.txt" log2asc -I "$LOG" -O "$WORK_DIR/drive.asc" can0 > /dev/null
 printf '%-34s %7.1f s\n' "log2asc (convert only)" "$(tail -1 "$WORK_DIR/time.txt")"

@@ -27,7 +27,8 @@ struct ReplayOutcome {
   std::optional<double> truth_eg;  // from a truth.yaml beside the log, if any
   std::vector<std::string> input_errors;  // "path: reason" of each log not read to its end
   double wall_s = 0;              // the whole replay, final identification included
-  double periodic_fit_wall_s = 0; // of which the periodic re-identifications (daemon's schedule)
+  double periodic_fit_wall_s = 0; // the periodic re-identifications' own time (daemon's schedule)
+  double periodic_fit_wait_s = 0; // of the wall time: the reading waiting for a periodic fit to end
 };
 
 // Replays the logs through `pipeline` (built from `config`); throws Error at set-up only

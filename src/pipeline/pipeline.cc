@@ -136,10 +136,12 @@ void Pipeline::Finish() {
   accumulator_.Finish();
 }
 
-bool Pipeline::IdentificationDue() const {
-  if (accumulator_.gated_hours() <= last_fit_gated_hours_) return false;
+bool Pipeline::IdentificationDue(const WindowSnapshot* pending) const {
+  const double last_gated_h = pending ? pending->gated_hours : last_fit_gated_hours_;
+  const int64_t last_data_ns = pending ? pending->data_time_ns : last_fit_data_ns_;
+  if (accumulator_.gated_hours() <= last_gated_h) return false;
   if (accumulator_.window().empty()) return false;
-  return static_cast<double>(data_time_ns_ - last_fit_data_ns_) * 1e-9 >= config_.identification.period_s;
+  return static_cast<double>(data_time_ns_ - last_data_ns) * 1e-9 >= config_.identification.period_s;
 }
 
 WindowSnapshot Pipeline::Snapshot() const {
@@ -175,6 +177,10 @@ WindowSnapshot Pipeline::Snapshot() const {
   for (const auto& seg : accumulator_.window()) drives.insert(seg->drive_id);
   for (const gate::StandstillStop& st : stops_)
     if (drives.count(st.drive_id)) snap.standstill.push_back(st);
+  for (const int64_t d : drives) {
+    const auto it = wheel_speed_.find(d);
+    if (it != wheel_speed_.end()) snap.wheel_speed.emplace(*it);
+  }
   return snap;
 }
 
@@ -237,14 +243,7 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
   all.insert(all.end(), snap.validation.begin(), snap.validation.end());
   e.plausibility = adequacy::CheckData(all, config_.plausibility);
-  {
-    std::map<int64_t, adequacy::SpeedSums> wheel;
-    for (const stats::Segment* seg : all) {
-      const auto it = wheel_speed_.find(seg->drive_id);
-      if (it != wheel_speed_.end()) wheel.emplace(*it);
-    }
-    adequacy::CheckWheelSpeed(wheel, config_.plausibility, e.plausibility);
-  }
+  adequacy::CheckWheelSpeed(snap.wheel_speed, config_.plausibility, e.plausibility);  // as at the snapshot
   if (e.fit.valid) {
     adequacy::EstimateFacts facts;
     facts.steer_ratio = snap.steady_state.valid ? snap.steady_state.steer_ratio : 0;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <deque>
 #include <optional>
@@ -57,6 +58,7 @@ struct WindowSnapshot {
   stats::SteadyStateEstimate steady_state;
   stats::Coverage coverage;
   std::vector<gate::StandstillStop> standstill;  // the standstills of the window's drives (evidence)
+  std::map<int64_t, adequacy::SpeedSums> wheel_speed;  // the window's drives' speed sums (plausibility)
 };
 
 class Pipeline {
@@ -68,8 +70,9 @@ class Pipeline {
   void ProcessFrames(std::span<const can::CanFrame> frames, const std::vector<std::string>& bus_names) noexcept;
   void Finish();  // end of data: flush sync, close segments and drives
 
-  // Identification is due every identification.period_s of data time once new gated data exist.
-  bool IdentificationDue() const;
+  // Identification is due every identification.period_s of data time once new gated data exist,
+  // counted from the last accepted fit or, when given, from a fit still running on `pending`.
+  bool IdentificationDue(const WindowSnapshot* pending = nullptr) const;
   WindowSnapshot Snapshot() const;
   // Fits a snapshot (may run on a worker thread; touches no pipeline state), incrementally on
   // top of `prior` (Prior()) when given, else over the whole window; with
