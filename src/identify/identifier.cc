@@ -139,7 +139,7 @@ using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eig
 // n_a a_y ones first, then the yaw rate's), their Jacobian J and its J'J and score J'e.
 void Linearize(LinearizedChunk& lc, const std::vector<double>& theta, const std::vector<double>& e,
                const Eigen::Ref<const RowMajorMatrix>& J, const Eigen::MatrixXd& jtj, const Eigen::VectorXd& score, size_t n_a,
-               const OutputWeights& weights, bool two_outputs) {
+               const OutputWeights& weights, bool two_outputs, bool with_acf = true) {
   const int np = static_cast<int>(theta.size());
   const auto split = e.begin() + static_cast<long>(n_a);
   lc = LinearizedChunk{};
@@ -153,8 +153,10 @@ void Linearize(LinearizedChunk& lc, const std::vector<double>& theta, const std:
   lc.n_yaw_rate = static_cast<uint32_t>(e.size() - n_a);
   for (auto it = e.begin(); it != split; ++it) lc.rss_a_y += (*it / weights.a_y) * (*it / weights.a_y);
   for (auto it = split; it != e.end(); ++it) lc.rss_yaw_rate += (*it / weights.yaw_rate) * (*it / weights.yaw_rate);
-  AddAutocorrelationSums(std::vector<double>(e.begin(), split), lc.acf_a_y);
-  if (split != e.end()) AddAutocorrelationSums(std::vector<double>(split, e.end()), lc.acf_yaw_rate);
+  if (with_acf) {
+    AddAutocorrelationSums(std::vector<double>(e.begin(), split), lc.acf_a_y);
+    if (split != e.end()) AddAutocorrelationSums(std::vector<double>(split, e.end()), lc.acf_yaw_rate);
+  }
   if (two_outputs) {  // the yaw-rate part (zero for a chunk without one), for re-weighting
     const long nr = static_cast<long>(e.size() - n_a);
     const auto Jr = J.bottomRows(nr);
@@ -719,7 +721,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   };
   const double sigma_rule = update && update->exact ? std::min(update->relinearize_sigma, kExactSigma)
                                                     : (update ? update->relinearize_sigma : 0.0);
-  auto stale_segments = [&](const std::vector<double>& at) {
+  auto stale_segments = [&](const std::vector<double>& at, double rule) {
     std::vector<size_t> out;
     if (from_prior.empty()) return out;
     const Eigen::MatrixXd h = prior_jtj();
@@ -736,7 +738,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
         worst = std::max(worst, m);
         step = std::max(step, d.lpNorm<Eigen::Infinity>());
       }
-      if (!(worst <= sigma_rule * sigma_rule) || !(step <= kRelinearizeStep)) {
+      if (!(worst <= rule * rule) || !(step <= kRelinearizeStep)) {
         // For the log: the parameter whose own move (in its marginal sigma) is the largest.
         Eigen::Index most = 0;
         (worst_d.cwiseAbs().array() * h.diagonal().cwiseMax(0.0).array().sqrt()).maxCoeff(&most);
@@ -907,7 +909,10 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   };
   const char* kNotRelinearized = "incremental: a prior chunk could not be relinearised (non-finite residuals), so fitted as the whole window";
   if (prior) {
-    if (!relinearize(stale_segments(theta))) return whole_window(kNotRelinearized);
+    // At the start, the distance rule of an ordinary update even for an exact one: the start (the
+    // last estimate) is not the solution, and the exact rule applies there (after the solve), so
+    // relinearising every chunk here too would only be done again.
+    if (!relinearize(stale_segments(theta, update->relinearize_sigma))) return whole_window(kNotRelinearized);
     set_quadratic();
     problem.AddResidualBlock(&quadratic, nullptr, theta.data());
   }
@@ -1227,7 +1232,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   bool settled = !prior;
   mark(1);
   for (int round = 0; prior && summary.IsSolutionUsable(); ++round) {
-    std::vector<size_t> stale = stale_segments(theta);
+    std::vector<size_t> stale = stale_segments(theta, sigma_rule);
     const bool checked = stale.empty();
     const CheckResult check = checked ? eg_check() : CheckResult{};
     if (!check.eg || !check.sigma) {
@@ -1512,7 +1517,109 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   }
 
   mark(3);
-  if (!validation.empty()) {  // both outputs' held-out RMSE from one simulation of each chunk
+  // The held-out RMSE. With a linearisation to keep (the incremental path), from the held-out
+  // chunks' quadratics (LinearizedWindow::held_out: unweighted, both outputs' parts): those of
+  // the prior where the estimate lies within the distance rule of all their segment's points
+  // (as for the training segments), the others' simulated once with their Jacobian at the
+  // estimate, which gives their exact sums there and their quadratics for the next update.
+  // An update thus simulates only new or stale held-out data. Otherwise, or if a held-out chunk
+  // cannot be evaluated, every held-out chunk is simulated at the estimate.
+  std::vector<LinearizedSegment> held_lin;
+  bool held_done = false;
+  if (!validation.empty() && keep) {
+    std::map<std::pair<int64_t, int64_t>, const LinearizedSegment*> held_prior;
+    if (prior)
+      for (const LinearizedSegment& ls : prior->held_out) held_prior[{ls.drive_id, ls.t0_ns}] = &ls;
+    Eigen::MatrixXd h;
+    double level = 0;
+    if (!held_prior.empty()) {
+      h = prior_jtj();
+      level = prior_level();
+    }
+    const Eigen::Map<const Eigen::VectorXd> x(theta.data(), np);
+    auto near = [&](const LinearizedSegment& ls) {
+      if (!(level > 0)) return false;
+      for (const LinearizedChunk& c : ls.chunks) {
+        const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
+        if (!(d.dot(h * d) / level <= sigma_rule * sigma_rule) || !(d.lpNorm<Eigen::Infinity>() <= kRelinearizeStep)) return false;
+      }
+      return true;
+    };
+    held_lin.resize(validation.size());
+    std::vector<std::vector<Chunk>> cuts(validation.size());
+    std::vector<std::pair<size_t, size_t>> jobs;  // (held-out segment, chunk) simulated with the Jacobian
+    size_t reused = 0;
+    for (size_t i = 0; i < validation.size(); ++i) {
+      const stats::Segment* seg = validation[i];
+      if (!seg) continue;
+      held_lin[i].drive_id = seg->drive_id;
+      held_lin[i].t0_ns = seg->t0_ns;
+      held_lin[i].samples = seg->samples.size();
+      const auto it = held_prior.find({seg->drive_id, seg->t0_ns});
+      if (it != held_prior.end() && SameSegment(*it->second, *seg) && near(*it->second)) {
+        held_lin[i].chunks = it->second->chunks;
+        reused += it->second->chunks.size();
+        continue;
+      }
+      cuts[i] = MakeChunks({seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_);
+      held_lin[i].chunks.resize(cuts[i].size());
+      for (size_t k = 0; k < cuts[i].size(); ++k) jobs.emplace_back(i, k);
+    }
+    const auto unit = std::make_shared<OutputWeights>(OutputWeights{1.0, two_outputs ? 1.0 : 0.0});
+    std::vector<char> ok(jobs.size(), 0);
+    ParallelFor(jobs.size(), config_.threads, [&](size_t j) {
+      const auto [i, k] = jobs[j];
+      const Chunk& c = cuts[i][k];
+      const size_t burn = BurnInSamples(c, config_.burn_in_s);
+      const auto cost = MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, unit);
+      const size_t m = static_cast<size_t>(cost->num_residuals());
+      std::vector<double> e(m), jac(m * static_cast<size_t>(np));
+      const double* pp[] = {theta.data()};
+      double* jj[] = {jac.data()};
+      const auto finite = [](double v) { return std::isfinite(v); };
+      if (!cost->Evaluate(pp, e.data(), jj) || !std::all_of(e.begin(), e.end(), finite) || !std::all_of(jac.begin(), jac.end(), finite))
+        return;
+      const Eigen::Map<const RowMajorMatrix> J(jac.data(), static_cast<long>(m), np);
+      const Eigen::Map<const Eigen::VectorXd> ev(e.data(), static_cast<long>(m));
+      Linearize(held_lin[i].chunks[k], theta, e, J, J.transpose() * J, J.transpose() * ev, c.n - burn, *unit, two_outputs, false);
+      ok[j] = 1;
+    });
+    if (std::all_of(ok.begin(), ok.end(), [](char v) { return v != 0; })) {
+      // Each chunk's sums at theta from its quadratic, per output (the yaw rate's part kept
+      // apart; none with a_y alone), added in segment and chunk order.
+      double sa = 0, sr = 0;
+      size_t na = 0, nr = 0;
+      for (const LinearizedSegment& ls : held_lin) {
+        for (const LinearizedChunk& c : ls.chunks) {
+          const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
+          const Eigen::Map<const RowMajorMatrix> hall(c.jtj.data(), np, np);
+          const Eigen::Map<const Eigen::VectorXd> sall(c.score.data(), np);
+          double qr = 0, ga = sall.dot(d), qa = d.dot(hall * d), gr = 0;
+          if (!c.jtj_yaw_rate.empty()) {
+            const Eigen::Map<const RowMajorMatrix> hr(c.jtj_yaw_rate.data(), np, np);
+            gr = Eigen::Map<const Eigen::VectorXd>(c.score_yaw_rate.data(), np).dot(d);
+            qr = d.dot(hr * d);
+            ga -= gr;
+            qa -= qr;
+          }
+          sa += std::max(0.0, c.rss_a_y + 2 * ga + qa);
+          sr += std::max(0.0, c.rss_yaw_rate + 2 * gr + qr);
+          na += c.n_a_y;
+          nr += c.n_yaw_rate;
+        }
+      }
+      r.residuals_validation = na;
+      r.rmse_validation_mps2 = RootMean(sa, na);
+      if (two_outputs) r.rmse_validation_yaw_radps = RootMean(sr, nr);
+      held_done = true;
+      r.held_out_from_prior = reused;
+      r.held_out_linearized = jobs.size();
+      spdlog::debug("held-out RMSE: {} chunks from their quadratics, {} simulated with their Jacobian", reused, jobs.size());
+    } else {
+      held_lin.clear();
+    }
+  }
+  if (!validation.empty() && !held_done) {  // both outputs' held-out RMSE from one simulation of each chunk
     const ErrorSums s = SimulatedErrorSums(spec_, wheelbase_m_, MakeChunks(validation, config_.chunk_s, config_.burn_in_s, drive_overrides_),
                                            r.AllValues(), config_.burn_in_s, two_outputs, config_.threads);
     r.residuals_validation = s.na;
@@ -1521,8 +1628,8 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   }
   mark(4);
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  spdlog::debug("fit times: setup {:.3f} s, solve {:.3f} s, checks and relinearisation {:.3f} s, statistics at the optimum {:.3f} s, "
-                "held-out RMSE {:.3f} s", phase[0], phase[1], phase[2], phase[3], phase[4]);
+  spdlog::debug("fit times: setup {:.3f} s, solve {:.3f} s ({} iterations), checks and relinearisation {:.3f} s, statistics at "
+                "the optimum {:.3f} s, held-out RMSE {:.3f} s", phase[0], phase[1], r.iterations, phase[2], phase[3], phase[4]);
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);
   if (!r.valid) r.reason = "non-finite EG or standard error";
   if (prior) {
@@ -1558,6 +1665,8 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       }
       if (!ls.chunks.empty()) lw->segments.push_back(std::move(ls));
     }
+    for (LinearizedSegment& ls : held_lin)
+      if (!ls.chunks.empty()) lw->held_out.push_back(std::move(ls));
     r.linearized = std::move(lw);
   }
   return r;

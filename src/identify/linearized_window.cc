@@ -37,6 +37,84 @@ std::vector<double> Acf(const JsonIn& in, uint32_t n) {
   return v;
 }
 
+// A list of segments' chunks. held_out: the held-out segments' (no autocorrelation sums).
+nlohmann::json SegmentsToJson(const std::vector<LinearizedSegment>& segments, bool held_out) {
+  nlohmann::json segs = nlohmann::json::array();
+  for (const LinearizedSegment& s : segments) {
+    nlohmann::json js;
+    js["drive_id"] = s.drive_id;
+    js["t0_ns"] = s.t0_ns;
+    js["samples"] = s.samples;
+    nlohmann::json chunks = nlohmann::json::array();
+    for (const LinearizedChunk& c : s.chunks) {
+      nlohmann::json jc;
+      jc["theta"] = Binary(c.theta);
+      jc["jtj"] = Binary(c.jtj);
+      jc["score"] = Binary(c.score);
+      jc["rss"] = c.rss;
+      jc["rss_a_y"] = c.rss_a_y;
+      jc["rss_yaw_rate"] = c.rss_yaw_rate;
+      jc["n_a_y"] = c.n_a_y;
+      jc["n_yaw_rate"] = c.n_yaw_rate;
+      if (!held_out) {
+        jc["acf_a_y"] = Binary(c.acf_a_y);
+        jc["acf_yaw_rate"] = Binary(c.acf_yaw_rate);
+      }
+      if (!c.jtj_yaw_rate.empty()) {
+        jc["jtj_yaw_rate"] = Binary(c.jtj_yaw_rate);
+        jc["score_yaw_rate"] = Binary(c.score_yaw_rate);
+      }
+      chunks.push_back(std::move(jc));
+    }
+    js["chunks"] = std::move(chunks);
+    segs.push_back(std::move(js));
+  }
+  return segs;
+}
+
+std::vector<LinearizedSegment> SegmentsFromJson(const JsonIn& segs, size_t np, bool held_out) {
+  std::vector<LinearizedSegment> out;
+  const size_t ns = segs.Size(kMaxSegments);
+  out.reserve(ns);
+  for (size_t i = 0; i < ns; ++i) {
+    const JsonIn js = segs.At(i);
+    LinearizedSegment s;
+    s.drive_id = js.Int64("drive_id");
+    s.t0_ns = js.Int64("t0_ns");
+    s.samples = js.UInt64("samples");
+    const JsonIn chunks = js.At("chunks");
+    const size_t nc = chunks.Size(kMaxChunksPerSegment);
+    s.chunks.reserve(nc);
+    for (size_t k = 0; k < nc; ++k) {
+      const JsonIn jc = chunks.At(k);
+      LinearizedChunk c;
+      c.theta = FiniteDoubles(jc.At("theta"), np);
+      c.jtj = GramMatrix(jc.At("jtj"), np);
+      c.score = FiniteDoubles(jc.At("score"), np);
+      c.rss = jc.Finite("rss");
+      c.rss_a_y = jc.Finite("rss_a_y");
+      c.rss_yaw_rate = jc.Finite("rss_yaw_rate");
+      if (c.rss < 0 || c.rss_a_y < 0 || c.rss_yaw_rate < 0) jc.At("rss").Fail("a negative sum of squares");
+      const uint64_t na = jc.UInt64("n_a_y"), nr = jc.UInt64("n_yaw_rate");
+      if (na == 0 || na > UINT32_MAX || nr > UINT32_MAX) jc.At("n_a_y").Fail("residual counts out of range");
+      c.n_a_y = static_cast<uint32_t>(na);
+      c.n_yaw_rate = static_cast<uint32_t>(nr);
+      if (!held_out) {
+        c.acf_a_y = Acf(jc.At("acf_a_y"), c.n_a_y);
+        c.acf_yaw_rate = Acf(jc.At("acf_yaw_rate"), c.n_yaw_rate);
+      }
+      // Optional (states written before they were kept have neither): both or none.
+      if (jc.Has("jtj_yaw_rate") || jc.Has("score_yaw_rate")) {
+        c.jtj_yaw_rate = GramMatrix(jc.At("jtj_yaw_rate"), np);
+        c.score_yaw_rate = FiniteDoubles(jc.At("score_yaw_rate"), np);
+      }
+      s.chunks.push_back(std::move(c));
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
 }  // namespace
 
 size_t LinearizedWindow::chunks() const {
@@ -51,9 +129,12 @@ bool LinearizedWindow::Compatible(const std::string& model_description, const st
     return false;
   }
   const size_t np = scale.size();
-  for (const LinearizedSegment& s : segments) {
-    for (const LinearizedChunk& c : s.chunks) {
-      if (c.theta.size() != np || c.score.size() != np || c.jtj.size() != np * np) return false;
+  for (const auto* list : {&segments, &held_out}) {
+    for (const LinearizedSegment& s : *list) {
+      for (const LinearizedChunk& c : s.chunks) {
+        if (c.theta.size() != np || c.score.size() != np || c.jtj.size() != np * np) return false;
+        if (!c.jtj_yaw_rate.empty() && (c.jtj_yaw_rate.size() != np * np || c.score_yaw_rate.size() != np)) return false;
+      }
     }
   }
   return true;
@@ -104,35 +185,8 @@ nlohmann::json LinearizedWindow::ToJson() const {
   j["chunk_s"] = chunk_s;
   j["burn_in_s"] = burn_in_s;
   j["updates_since_full"] = updates_since_full;
-  nlohmann::json segs = nlohmann::json::array();
-  for (const LinearizedSegment& s : segments) {
-    nlohmann::json js;
-    js["drive_id"] = s.drive_id;
-    js["t0_ns"] = s.t0_ns;
-    js["samples"] = s.samples;
-    nlohmann::json chunks = nlohmann::json::array();
-    for (const LinearizedChunk& c : s.chunks) {
-      nlohmann::json jc;
-      jc["theta"] = Binary(c.theta);
-      jc["jtj"] = Binary(c.jtj);
-      jc["score"] = Binary(c.score);
-      jc["rss"] = c.rss;
-      jc["rss_a_y"] = c.rss_a_y;
-      jc["rss_yaw_rate"] = c.rss_yaw_rate;
-      jc["n_a_y"] = c.n_a_y;
-      jc["n_yaw_rate"] = c.n_yaw_rate;
-      jc["acf_a_y"] = Binary(c.acf_a_y);
-      jc["acf_yaw_rate"] = Binary(c.acf_yaw_rate);
-      if (!c.jtj_yaw_rate.empty()) {
-        jc["jtj_yaw_rate"] = Binary(c.jtj_yaw_rate);
-        jc["score_yaw_rate"] = Binary(c.score_yaw_rate);
-      }
-      chunks.push_back(std::move(jc));
-    }
-    js["chunks"] = std::move(chunks);
-    segs.push_back(std::move(js));
-  }
-  j["segments"] = std::move(segs);
+  j["segments"] = SegmentsToJson(segments, false);
+  if (!held_out.empty()) j["held_out"] = SegmentsToJson(held_out, true);
   return j;
 }
 
@@ -152,43 +206,8 @@ LinearizedWindow LinearizedWindow::FromJson(const JsonIn& in) {
   const int64_t updates = in.Int64("updates_since_full");
   if (updates < 0 || updates > 1'000'000'000) in.At("updates_since_full").Fail("out of range");
   w.updates_since_full = static_cast<int>(updates);
-  const JsonIn segs = in.At("segments");
-  const size_t ns = segs.Size(kMaxSegments);
-  w.segments.reserve(ns);
-  for (size_t i = 0; i < ns; ++i) {
-    const JsonIn js = segs.At(i);
-    LinearizedSegment s;
-    s.drive_id = js.Int64("drive_id");
-    s.t0_ns = js.Int64("t0_ns");
-    s.samples = js.UInt64("samples");
-    const JsonIn chunks = js.At("chunks");
-    const size_t nc = chunks.Size(kMaxChunksPerSegment);
-    s.chunks.reserve(nc);
-    for (size_t k = 0; k < nc; ++k) {
-      const JsonIn jc = chunks.At(k);
-      LinearizedChunk c;
-      c.theta = FiniteDoubles(jc.At("theta"), np);
-      c.jtj = GramMatrix(jc.At("jtj"), np);
-      c.score = FiniteDoubles(jc.At("score"), np);
-      c.rss = jc.Finite("rss");
-      c.rss_a_y = jc.Finite("rss_a_y");
-      c.rss_yaw_rate = jc.Finite("rss_yaw_rate");
-      if (c.rss < 0 || c.rss_a_y < 0 || c.rss_yaw_rate < 0) jc.At("rss").Fail("a negative sum of squares");
-      const uint64_t na = jc.UInt64("n_a_y"), nr = jc.UInt64("n_yaw_rate");
-      if (na == 0 || na > UINT32_MAX || nr > UINT32_MAX) jc.At("n_a_y").Fail("residual counts out of range");
-      c.n_a_y = static_cast<uint32_t>(na);
-      c.n_yaw_rate = static_cast<uint32_t>(nr);
-      c.acf_a_y = Acf(jc.At("acf_a_y"), c.n_a_y);
-      c.acf_yaw_rate = Acf(jc.At("acf_yaw_rate"), c.n_yaw_rate);
-      // Optional (states written before they were kept have neither): both or none.
-      if (jc.Has("jtj_yaw_rate") || jc.Has("score_yaw_rate")) {
-        c.jtj_yaw_rate = GramMatrix(jc.At("jtj_yaw_rate"), np);
-        c.score_yaw_rate = FiniteDoubles(jc.At("score_yaw_rate"), np);
-      }
-      s.chunks.push_back(std::move(c));
-    }
-    w.segments.push_back(std::move(s));
-  }
+  w.segments = SegmentsFromJson(in.At("segments"), np, false);
+  if (in.Has("held_out")) w.held_out = SegmentsFromJson(in.At("held_out"), np, true);
   return w;
 }
 

@@ -16,6 +16,7 @@
 #include "ndsid/config/config.h"
 #include "ndsid/config/simulation_config.h"
 #include "ndsid/gate/gate.h"
+#include "ndsid/identify/chunks.h"
 #include "ndsid/identify/identifier.h"
 #include "ndsid/identify/linearized_window.h"
 #include "ndsid/sim/simulator.h"
@@ -336,6 +337,62 @@ TEST(Incremental, APriorOfAnotherModelOrChunkingIsIgnored) {
   EXPECT_NEAR(again.eg_se_rad_per_mps2, b.eg_se_rad_per_mps2, 0.01 * b.eg_se_rad_per_mps2);
 }
 
+// The held-out RMSE of an incremental update comes from the held-out chunks' quadratics
+// (LinearizedWindow::held_out) where the estimate stays near their points, and from simulating
+// the new or stale ones. At every update it must equal the held-out drives simulated at the
+// update's estimate (Identifier::Rmse / RmseYawRate) to 1e-3 of itself (a Gauss-Newton quadratic
+// of the sum of squares, from points up to relinearize_sigma away: measured at most 2.9e-4, in
+// the first hour, where the estimate still moves most), the quadratics must cover every
+// held-out chunk, and most held-out chunks must come from the prior.
+// Two seeds, both outputs, every third drive held out; the second seed with a gyro offset
+// and a steering offset in the data and in the model.
+TEST(Incremental, HeldOutRmseFromTheQuadraticsEqualsTheSimulatedOne) {
+  for (const uint64_t seed : {3u, 21u}) {
+    SimRun run = MakeRun(seed, 1.2);
+    if (seed == 21) {
+      config::ApplyEffect(run.sim.effects, "steer_offset_deg=-1.2");
+      config::ApplyEffect(run.sim.effects, "gyro_offset_degps=0.35");
+      run.effects = {"road_bank", "steer_offset", "gyro_offset"};
+    }
+    ASSERT_TRUE(run.cfg.identification.yaw_rate_output);
+    const Identifier id(run.cfg.identification, run.cfg.vehicle.wheelbase_m, model::ModelSpec::FromNames(run.effects));
+    std::shared_ptr<const LinearizedWindow> prior;
+    std::optional<std::vector<double>> warm;
+    int updates = 0, checked = 0;
+    size_t reused = 0, linearized = 0;
+    double worst = 0;  // relative error of the held-out RMSE, either output
+    Grow(run, [&](const stats::Accumulator& acc) {
+      SegmentList train, val;
+      for (const auto& seg : acc.window()) (seg->drive_id % 3 == 2 ? val : train).push_back(seg.get());
+      if (train.empty()) return;
+      const IdentificationResult inc = id.Identify(train, val, warm, IncrementalUpdate{prior, run.cfg.identification.relinearize_sigma, true});
+      ASSERT_TRUE(inc.valid) << inc.reason;
+      ++updates;
+      prior = inc.linearized;
+      warm = inc.AllValues();
+      if (val.empty()) return;
+      size_t na = 0, nr = 0;
+      const double a = id.Rmse(inc.AllValues(), val, &na), r = id.RmseYawRate(inc.AllValues(), val, &nr);
+      SCOPED_TRACE("seed " + std::to_string(seed) + " at " + std::to_string(acc.gated_hours()) + " gated h");
+      EXPECT_EQ(inc.residuals_validation, na);
+      EXPECT_NEAR(inc.rmse_validation_mps2, a, 1e-3 * a);
+      EXPECT_NEAR(inc.rmse_validation_yaw_radps, r, 1e-3 * r);
+      worst = std::max({worst, std::abs(inc.rmse_validation_mps2 / a - 1), std::abs(inc.rmse_validation_yaw_radps / r - 1)});
+      size_t held_chunks = 0;
+      for (const auto& ls : inc.linearized->held_out) held_chunks += ls.chunks.size();
+      EXPECT_EQ(held_chunks, inc.held_out_from_prior + inc.held_out_linearized);
+      EXPECT_EQ(held_chunks, MakeChunks(val, run.cfg.identification.chunk_s, run.cfg.identification.burn_in_s).size());
+      reused += inc.held_out_from_prior;
+      linearized += inc.held_out_linearized;
+      ++checked;
+    });
+    std::printf("  seed %llu: %d updates, %d with held-out drives; held-out chunks %zu from the quadratics, %zu simulated; "
+                "worst relative RMSE error %.2e\n", static_cast<unsigned long long>(seed), updates, checked, reused, linearized, worst);
+    EXPECT_GE(checked, 4) << "seed " << seed;
+    EXPECT_GT(reused, linearized) << "seed " << seed << ": the quadratics should serve most held-out chunks";
+  }
+}
+
 // The prior is learned state: it survives the codec bit for bit, and a damaged one is refused
 // with the path of the bad value.
 TEST(Incremental, PriorRoundTripsThroughTheCodecAndRefusesDamage) {
@@ -350,6 +407,31 @@ TEST(Incremental, PriorRoundTripsThroughTheCodecAndRefusesDamage) {
   const nlohmann::json doc = ParseCbor(ToCbor(b.linearized->ToJson()), "test");
   const LinearizedWindow back = LinearizedWindow::FromJson(JsonIn(doc, "linearized"));
   ASSERT_EQ(back.chunks(), b.linearized->chunks());
+  {  // The held-out drives' quadratics (the last segment held out here) round-trip too.
+    const SegmentList train(segs.begin(), segs.end() - 1), val(segs.end() - 1, segs.end());
+    const IdentificationResult h = id.Identify(train, val, b.AllValues(), IncrementalUpdate{nullptr, 0.5, true});
+    ASSERT_TRUE(h.valid && h.linearized && !h.linearized->held_out.empty());
+    const nlohmann::json hdoc = ParseCbor(ToCbor(h.linearized->ToJson()), "test");
+    const LinearizedWindow hback = LinearizedWindow::FromJson(JsonIn(hdoc, "linearized"));
+    ASSERT_EQ(hback.held_out.size(), h.linearized->held_out.size());
+    EXPECT_EQ(hback.held_out[0].chunks[0].jtj, h.linearized->held_out[0].chunks[0].jtj);
+    EXPECT_EQ(hback.held_out[0].chunks[0].score_yaw_rate, h.linearized->held_out[0].chunks[0].score_yaw_rate);
+    EXPECT_EQ(hback.held_out[0].chunks[0].rss_a_y, h.linearized->held_out[0].chunks[0].rss_a_y);
+    EXPECT_TRUE(hback.held_out[0].chunks[0].acf_a_y.empty());
+    // Taken from the prior read back, the held-out RMSE is the simulated one at the new estimate.
+    const IdentificationResult again = id.Identify(train, val, h.AllValues(), IncrementalUpdate{std::make_shared<LinearizedWindow>(hback), 0.5, true});
+    EXPECT_EQ(again.held_out_from_prior, h.held_out_linearized);
+    const double rmse = id.Rmse(again.AllValues(), val);
+    EXPECT_NEAR(again.rmse_validation_mps2, rmse, 1e-4 * rmse);
+    nlohmann::json hbad = hdoc;
+    hbad["held_out"][0]["chunks"][0]["rss_a_y"] = -1.0;
+    try {
+      LinearizedWindow::FromJson(JsonIn(hbad, "linearized"));
+      ADD_FAILURE() << "a negative held-out sum of squares was accepted";
+    } catch (const CodecError& e) {
+      EXPECT_NE(std::string(e.what()).find("linearized.held_out[0].chunks[0].rss"), std::string::npos) << e.what();
+    }
+  }
   EXPECT_EQ(back.segments[0].chunks[0].jtj, b.linearized->segments[0].chunks[0].jtj);
   EXPECT_EQ(back.segments.back().chunks.back().acf_a_y, b.linearized->segments.back().chunks.back().acf_a_y);
   // Both outputs (the example's): each chunk's yaw-rate part is kept, so the prior can be re-weighted.

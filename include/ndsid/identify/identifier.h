@@ -112,6 +112,10 @@ struct IdentificationResult {
   size_t chunks_simulated = 0;
   size_t chunks_from_prior = 0;
   size_t chunks_relinearized = 0;  // prior chunks relinearised in place, counted at every round
+  // Held-out chunks whose RMSE sums came from the prior's quadratics (LinearizedWindow::held_out)
+  // / were simulated with their Jacobian at the estimate (incremental path only).
+  size_t held_out_from_prior = 0;
+  size_t held_out_linearized = 0;
   // Every training chunk's quadratic at this fit's estimate (or kept from the prior): the next
   // incremental update's prior. Set when asked for (IncrementalUpdate::keep) and the fit is usable.
   std::shared_ptr<const LinearizedWindow> linearized;

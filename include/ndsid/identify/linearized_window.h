@@ -51,6 +51,11 @@ struct LinearizedWindow {
   double weight_yaw_rate = 0.0;
   double chunk_s = 0, burn_in_s = 0;
   std::vector<LinearizedSegment> segments;
+  // The held-out segments' chunks, for the held-out RMSE of the next update: unweighted (output
+  // weights 1, so jtj, score and rss are the sums of both outputs and *_yaw_rate the yaw rate's
+  // part), without autocorrelation sums. Not part of the fit; Reweighted leaves them as they are.
+  // Empty in states written before they were kept (the held-out drives are then simulated).
+  std::vector<LinearizedSegment> held_out;
   int updates_since_full = 0;  // incremental updates since the last full-window refit
 
   size_t chunks() const;
