@@ -5,12 +5,18 @@
 // holds HOURS - period_s of gated data, a full-window fit gives the prior; then, once the window
 // holds HOURS, one incremental update on top of it and one full refit from the same warm start
 // are timed. Prints both wall times, the chunks each simulated, and how far apart their EGs are.
+// NDSID_HELD_OUT=1 holds out every k-th drive (k = 1 / identification.validation_fraction), as
+// the pipeline does, so both fits also give the held-out RMSE (the incremental update from the
+// held-out chunks' quadratics where it can: docs/incremental.md, "The held-out RMSE").
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -51,9 +57,29 @@ int main(int argc, char** argv) {
   ndsid::gate::Gate gate(cfg.gate, 0.01);
   ndsid::stats::Accumulator acc(cfg, 100.0);
   const id::Identifier identifier(cfg.identification, cfg.vehicle.wheelbase_m, ndsid::model::ModelSpec::FromNames(effects));
+  const double frac = cfg.identification.validation_fraction;
+  const int64_t every = std::getenv("NDSID_HELD_OUT") && frac > 0 ? std::max<int64_t>(2, std::llround(1.0 / frac)) : 0;
+  // As Pipeline::Snapshot: every k-th drive, or with none of those in the window, the shortest
+  // drive once there are two.
+  auto held_out = [&](const ndsid::stats::Segment& s) {
+    if (every <= 0) return false;
+    std::map<int64_t, double> drive_s;
+    for (const auto& seg : acc.window()) drive_s[seg->drive_id] += seg->duration_s();
+    bool any_regular = false;
+    for (const auto& [d, t] : drive_s) any_regular = any_regular || d % every == every - 1;
+    if (any_regular || drive_s.size() < 2) return s.drive_id % every == every - 1;
+    return s.drive_id == std::min_element(drive_s.begin(), drive_s.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
+  };
   auto window = [&] {
     id::SegmentList segs;
-    for (const auto& s : acc.window()) segs.push_back(s.get());
+    for (const auto& s : acc.window())
+      if (!held_out(*s)) segs.push_back(s.get());
+    return segs;
+  };
+  auto validation = [&] {
+    id::SegmentList segs;
+    for (const auto& s : acc.window())
+      if (held_out(*s)) segs.push_back(s.get());
     return segs;
   };
   std::vector<std::shared_ptr<const ndsid::stats::Segment>> keep_prior;
@@ -78,7 +104,7 @@ int main(int argc, char** argv) {
       if (!prior_fit.linearized && acc.gated_hours() >= prior_h) {
         keep_prior.assign(acc.window().begin(), acc.window().end());
         const auto t0 = std::chrono::steady_clock::now();
-        prior_fit = identifier.Identify(window(), {}, std::nullopt, id::IncrementalUpdate{nullptr, 0.5, true});
+        prior_fit = identifier.Identify(window(), validation(), std::nullopt, id::IncrementalUpdate{nullptr, 0.5, true});
         prior_s = Seconds(t0);
       }
       done = prior_fit.linearized && acc.gated_hours() >= want_h;
@@ -89,13 +115,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "the simulation gave no prior (%.2f gated h)\n", acc.gated_hours());
     return 1;
   }
-  const id::SegmentList segs = window();
+  const id::SegmentList segs = window(), val = validation();
   const double rc = cfg.identification.relinearize_sigma;
   const auto t1 = std::chrono::steady_clock::now();
-  const auto inc = identifier.Identify(segs, {}, prior_fit.AllValues(), id::IncrementalUpdate{prior_fit.linearized, rc, true});
+  const auto inc = identifier.Identify(segs, val, prior_fit.AllValues(), id::IncrementalUpdate{prior_fit.linearized, rc, true});
   const double inc_s = Seconds(t1);
   const auto t2 = std::chrono::steady_clock::now();
-  const auto full = identifier.Identify(segs, {}, prior_fit.AllValues());
+  const auto full = identifier.Identify(segs, val, prior_fit.AllValues());
   const double full_s = Seconds(t2);
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -106,5 +132,10 @@ int main(int argc, char** argv) {
               inc.chunks_from_prior, inc.iterations, full_s, full.iterations, full.coarse_iterations, full_s / inc_s, inc.eg_deg_per_g,
               full.eg_deg_per_g, std::abs(inc.eg_rad_per_mps2 - full.eg_rad_per_mps2) / full.eg_se_rad_per_mps2,
               u.ru_maxrss / 1024.0);
+  if (!val.empty()) {
+    std::printf("  held out: %zu segments; incremental: %zu chunks from their quadratics, %zu simulated with their Jacobian; "
+                "held-out RMSE a_y %.5f vs %.5f m/s^2 (full refit, simulated)\n",
+                val.size(), inc.held_out_from_prior, inc.held_out_linearized, inc.rmse_validation_mps2, full.rmse_validation_mps2);
+  }
   return inc.valid && full.valid ? 0 : 1;
 }
