@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <string>
 
@@ -21,11 +22,47 @@ size_t LastLag(const std::vector<double>& e) { return std::min(kAcfMaxLag, e.emp
 // added in increasing k, one running sum per lag; four lags share a pass over e, so their four
 // sums are independent chains the processor overlaps (a single sum waits on each addition), and
 // every sum is bit for bit that of the plain loop `for k = lag..n-1: s += e[k] * e[k - lag]`.
-// (Eight lags per pass measured slower at -O2: the sums no longer stay in registers.)
+// (Eight scalar lags per pass measured slower at -O2: the sums no longer stay in registers.)
+// Where the processor has SSE2 and the build no fused multiply-add (which could contract the
+// products into the sums and change their rounding), eight lags share a pass in four two-lane
+// vectors: each lane is still one lag's running sum, each product rounded before it is added,
+// in increasing k, so the bits are the plain loop's (NoiseLevel.LagSumsAreTheirDefinitionBitForBit);
+// about twice as fast (0.19 against 0.10 ms for 251 lags of a 3 000-sample chunk).
 void LagSums(const std::vector<double>& e, size_t first, size_t last, double* out) {
   const size_t n = e.size();
   const double* x = e.data();
   size_t lag = first;
+#if defined(__SSE2__) && !defined(__FMA__) && !defined(__FP_FAST_FMA)
+  using V2 = double __attribute__((vector_size(16)));
+  for (; lag + 7 <= last; lag += 8) {
+    // Each of the eight lags' products for k < lag + 7 (lag j's start at k = lag + j), in order.
+    double p[8];
+    for (size_t j = 0; j < 8; ++j) {
+      double s = 0;
+      for (size_t k = lag + j; k < lag + 7; ++k) s += x[k] * x[k - lag - j];
+      p[j] = s;
+    }
+    // Lanes {lag + 2m + 1, lag + 2m} of vector m: the pair x[k - lag - 2m - 1], x[k - lag - 2m].
+    V2 a0 = {p[1], p[0]}, a1 = {p[3], p[2]}, a2 = {p[5], p[4]}, a3 = {p[7], p[6]};
+    for (size_t k = lag + 7; k < n; ++k) {
+      const V2 v = {x[k], x[k]};
+      V2 y0, y1, y2, y3;
+      std::memcpy(&y0, x + k - lag - 1, sizeof y0);
+      std::memcpy(&y1, x + k - lag - 3, sizeof y1);
+      std::memcpy(&y2, x + k - lag - 5, sizeof y2);
+      std::memcpy(&y3, x + k - lag - 7, sizeof y3);
+      a0 += v * y0;
+      a1 += v * y1;
+      a2 += v * y2;
+      a3 += v * y3;
+    }
+    const V2 acc[4] = {a0, a1, a2, a3};
+    for (size_t m = 0; m < 4; ++m) {
+      out[lag + 2 * m - first] = acc[m][1];
+      out[lag + 2 * m + 1 - first] = acc[m][0];
+    }
+  }
+#endif
   for (; lag + 3 <= last; lag += 4) {
     double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
     // k < lag + 3: only the lags whose first product has come (each starts at k = its lag;
