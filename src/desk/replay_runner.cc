@@ -48,6 +48,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
     std::shared_ptr<const pipeline::WindowSnapshot> snap;
     std::future<identify::IdentificationResult> result;
     std::shared_ptr<std::atomic<double>> fit_s;  // the fit's own time, set by the worker
+    adequacy::PlausibilityReport data_checks;    // the snapshot's data checks, made while it runs
   };
   std::optional<PendingFit> pending;
   auto start_fit = [&] {
@@ -61,6 +62,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
       fit_s->store(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       return r;
     });
+    p.data_checks = pipeline.CheckData(*p.snap);  // on this thread, beside the fit
     pending = std::move(p);
   };
   auto accept_pending = [&] {  // waits for the running fit (rethrows its error) and records it
@@ -69,7 +71,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
     identify::IdentificationResult fit = pending->result.get();
     out.periodic_fit_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_wait).count();
     out.periodic_fit_wall_s += pending->fit_s->load();
-    const pipeline::Estimate& e = pipeline.Accept(*pending->snap, std::move(fit));
+    const pipeline::Estimate& e = pipeline.Accept(*pending->snap, std::move(fit), &pending->data_checks);
     pending.reset();
     progress.Done();  // the log line on a line of its own
     spdlog::info("{:.2f} gated h: EG {:.3f} ± {:.3f} deg/g, {}", e.gated_hours, e.fit.eg_deg_per_g, e.fit.eg_se_deg_per_g,

@@ -220,7 +220,16 @@ bool Pipeline::ExactDue() const {
   return c.incremental && linearized_ && c.full_refit_every > 0 && linearized_->updates_since_full + 1 >= c.full_refit_every;
 }
 
-const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit) {
+adequacy::PlausibilityReport Pipeline::CheckData(const WindowSnapshot& snap) const {
+  std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
+  all.insert(all.end(), snap.validation.begin(), snap.validation.end());
+  adequacy::PlausibilityReport r = adequacy::CheckData(all, config_.plausibility);
+  adequacy::CheckWheelSpeed(snap.wheel_speed, config_.plausibility, r);  // as at the snapshot
+  return r;
+}
+
+const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit,
+                                 const adequacy::PlausibilityReport* data_checks) {
   last_fit_data_ns_ = snap.data_time_ns;
   last_fit_gated_hours_ = snap.gated_hours;
   Estimate e;
@@ -240,10 +249,7 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   e.fit = std::move(fit);
   // Plausibility (docs/monitoring.md): a fit of data that break the kinematics, or an EG that is
   // unphysical or undetermined, is published as not valid, with the checks' words as reason.
-  std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
-  all.insert(all.end(), snap.validation.begin(), snap.validation.end());
-  e.plausibility = adequacy::CheckData(all, config_.plausibility);
-  adequacy::CheckWheelSpeed(snap.wheel_speed, config_.plausibility, e.plausibility);  // as at the snapshot
+  e.plausibility = data_checks ? *data_checks : CheckData(snap);
   if (e.fit.valid) {
     adequacy::EstimateFacts facts;
     facts.steer_ratio = snap.steady_state.valid ? snap.steady_state.steer_ratio : 0;

@@ -84,7 +84,13 @@ class Pipeline {
                                             bool exact = false);
   // Records a finished fit: updates adequacy, the last estimate and the incremental prior
   // (reading-thread side).
-  const Estimate& Accept(const WindowSnapshot& snap, identify::IdentificationResult fit);
+  // data_checks: CheckData(snap) computed beforehand (e.g. on the reading thread while the fit
+  // ran); else computed here.
+  const Estimate& Accept(const WindowSnapshot& snap, identify::IdentificationResult fit,
+                         const adequacy::PlausibilityReport* data_checks = nullptr);
+  // The plausibility checks of a snapshot's data (kinematics, steering sign, wheel speeds): the
+  // part of Accept's checks that does not depend on the fit. Touches no pipeline state.
+  adequacy::PlausibilityReport CheckData(const WindowSnapshot& snap) const;
   // Snapshot + Fit + Accept in one call (the CLI); final: the whole window's optimum (the final
   // fit; an exact update on the prior when there is one, else the whole window refitted).
   const Estimate& IdentifyNow(bool final = false);
