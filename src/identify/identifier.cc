@@ -721,6 +721,25 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   };
   const double sigma_rule = update && update->exact ? std::min(update->relinearize_sigma, kExactSigma)
                                                     : (update ? update->relinearize_sigma : 0.0);
+  // How far `at` lies from a segment's linearisation points: the largest squared Mahalanobis
+  // distance (prior J'J h over its noise level) and the largest single step over its chunks.
+  struct Distance {
+    double worst = 0, step = 0;
+    Eigen::VectorXd worst_d;  // the move from the worst chunk's linearisation point
+    bool beyond(double rule) const { return !(worst <= rule * rule) || !(step <= kRelinearizeStep); }
+  };
+  auto distance = [&](const LinearizedSegment& ls, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::MatrixXd& h,
+                      double level) {
+    Distance out;
+    for (const LinearizedChunk& c : ls.chunks) {
+      const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
+      const double m = d.dot(h * d) / level;
+      if (out.worst_d.size() == 0 || m > out.worst) out.worst_d = d;
+      out.worst = std::max(out.worst, m);
+      out.step = std::max(out.step, d.lpNorm<Eigen::Infinity>());
+    }
+    return out;
+  };
   auto stale_segments = [&](const std::vector<double>& at, double rule) {
     std::vector<size_t> out;
     if (from_prior.empty()) return out;
@@ -729,21 +748,13 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     if (!(level > 0)) return out;
     const Eigen::Map<const Eigen::VectorXd> x(at.data(), np);
     for (size_t i = 0; i < from_prior.size(); ++i) {
-      double worst = 0, step = 0;
-      Eigen::VectorXd worst_d;  // the move from the worst chunk's linearisation point
-      for (const LinearizedChunk& c : from_prior[i].lin->chunks) {
-        const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
-        const double m = d.dot(h * d) / level;
-        if (worst_d.size() == 0 || m > worst) worst_d = d;
-        worst = std::max(worst, m);
-        step = std::max(step, d.lpNorm<Eigen::Infinity>());
-      }
-      if (!(worst <= rule * rule) || !(step <= kRelinearizeStep)) {
+      const Distance dist = distance(*from_prior[i].lin, x, h, level);
+      if (dist.beyond(rule)) {
         // For the log: the parameter whose own move (in its marginal sigma) is the largest.
         Eigen::Index most = 0;
-        (worst_d.cwiseAbs().array() * h.diagonal().cwiseMax(0.0).array().sqrt()).maxCoeff(&most);
-        spdlog::debug("incremental: prior segment {} stale ({:.3g} sigma, step {:.3g}; largest single move {})", i, std::sqrt(worst),
-                      step, spec_.param_name(static_cast<int>(most)));
+        (dist.worst_d.cwiseAbs().array() * h.diagonal().cwiseMax(0.0).array().sqrt()).maxCoeff(&most);
+        spdlog::debug("incremental: prior segment {} stale ({:.3g} sigma, step {:.3g}; largest single move {})", i,
+                      std::sqrt(dist.worst), dist.step, spec_.param_name(static_cast<int>(most)));
         out.push_back(i);
       }
     }
@@ -858,8 +869,10 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // stale the scores of all chunks sum to zero as in the whole-window fit.
   // One chunk's weighted residuals e and Jacobian jac (row-major, m x np) at theta; false where
   // they cannot be evaluated or are not finite.
-  auto evaluate_at_theta = [&](const Chunk& c, std::vector<double>& e, std::vector<double>& jac) {
-    const auto cost = MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
+  // w: other output weights than the fit's (the held-out chunks' unit weights).
+  auto evaluate_at_theta = [&](const Chunk& c, std::vector<double>& e, std::vector<double>& jac,
+                               std::shared_ptr<const OutputWeights> w = nullptr) {
+    const auto cost = MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale, w ? w : weights);
     const size_t m = static_cast<size_t>(cost->num_residuals());
     e.resize(m);
     jac.resize(m * static_cast<size_t>(np));
@@ -1537,14 +1550,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       level = prior_level();
     }
     const Eigen::Map<const Eigen::VectorXd> x(theta.data(), np);
-    auto near = [&](const LinearizedSegment& ls) {
-      if (!(level > 0)) return false;
-      for (const LinearizedChunk& c : ls.chunks) {
-        const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
-        if (!(d.dot(h * d) / level <= sigma_rule * sigma_rule) || !(d.lpNorm<Eigen::Infinity>() <= kRelinearizeStep)) return false;
-      }
-      return true;
-    };
+    auto near = [&](const LinearizedSegment& ls) { return level > 0 && !distance(ls, x, h, level).beyond(sigma_rule); };
     held_lin.resize(validation.size());
     std::vector<std::vector<Chunk>> cuts(validation.size());
     std::vector<std::pair<size_t, size_t>> jobs;  // (held-out segment, chunk) simulated with the Jacobian
@@ -1570,18 +1576,13 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     ParallelFor(jobs.size(), config_.threads, [&](size_t j) {
       const auto [i, k] = jobs[j];
       const Chunk& c = cuts[i][k];
-      const size_t burn = BurnInSamples(c, config_.burn_in_s);
-      const auto cost = MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, unit);
-      const size_t m = static_cast<size_t>(cost->num_residuals());
-      std::vector<double> e(m), jac(m * static_cast<size_t>(np));
-      const double* pp[] = {theta.data()};
-      double* jj[] = {jac.data()};
-      const auto finite = [](double v) { return std::isfinite(v); };
-      if (!cost->Evaluate(pp, e.data(), jj) || !std::all_of(e.begin(), e.end(), finite) || !std::all_of(jac.begin(), jac.end(), finite))
-        return;
-      const Eigen::Map<const RowMajorMatrix> J(jac.data(), static_cast<long>(m), np);
-      const Eigen::Map<const Eigen::VectorXd> ev(e.data(), static_cast<long>(m));
-      Linearize(held_lin[i].chunks[k], theta, e, J, J.transpose() * J, J.transpose() * ev, c.n - burn, *unit, two_outputs, false);
+      std::vector<double> e, jac;
+      if (!evaluate_at_theta(c, e, jac, unit)) return;
+      const long m = static_cast<long>(e.size());
+      const Eigen::Map<const RowMajorMatrix> J(jac.data(), m, np);
+      const Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
+      Linearize(held_lin[i].chunks[k], theta, e, J, J.transpose() * J, J.transpose() * ev, c.n - BurnInSamples(c, config_.burn_in_s),
+                *unit, two_outputs, false);
       ok[j] = 1;
     });
     if (std::all_of(ok.begin(), ok.end(), [](char v) { return v != 0; })) {
