@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@
 #include "ndsid/identify/identifier.h"
 #include "ndsid/sim/simulator.h"
 #include "ndsid/stats/accumulator.h"
+#include "ndsid/stats/held_out.h"
 
 namespace {
 
@@ -57,29 +59,21 @@ int main(int argc, char** argv) {
   ndsid::gate::Gate gate(cfg.gate, 0.01);
   ndsid::stats::Accumulator acc(cfg, 100.0);
   const id::Identifier identifier(cfg.identification, cfg.vehicle.wheelbase_m, ndsid::model::ModelSpec::FromNames(effects));
-  const double frac = cfg.identification.validation_fraction;
-  const int64_t every = std::getenv("NDSID_HELD_OUT") && frac > 0 ? std::max<int64_t>(2, std::llround(1.0 / frac)) : 0;
-  // As Pipeline::Snapshot: every k-th drive, or with none of those in the window, the shortest
-  // drive once there are two.
-  auto held_out = [&](const ndsid::stats::Segment& s) {
-    if (every <= 0) return false;
-    std::map<int64_t, double> drive_s;
-    for (const auto& seg : acc.window()) drive_s[seg->drive_id] += seg->duration_s();
-    bool any_regular = false;
-    for (const auto& [d, t] : drive_s) any_regular = any_regular || d % every == every - 1;
-    if (any_regular || drive_s.size() < 2) return s.drive_id % every == every - 1;
-    return s.drive_id == std::min_element(drive_s.begin(), drive_s.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
-  };
+  // As Pipeline::Snapshot (stats/held_out.h): every k-th drive, or with none of those in the
+  // window, the shortest drive once there are two.
+  const double frac = std::getenv("NDSID_HELD_OUT") ? cfg.identification.validation_fraction : 0.0;
   auto window = [&] {
     id::SegmentList segs;
+    const std::set<int64_t> drives = ndsid::stats::HeldOutDrives(acc.window(), frac);
     for (const auto& s : acc.window())
-      if (!held_out(*s)) segs.push_back(s.get());
+      if (!drives.count(s->drive_id)) segs.push_back(s.get());
     return segs;
   };
   auto validation = [&] {
     id::SegmentList segs;
+    const std::set<int64_t> drives = ndsid::stats::HeldOutDrives(acc.window(), frac);
     for (const auto& s : acc.window())
-      if (held_out(*s)) segs.push_back(s.get());
+      if (drives.count(s->drive_id)) segs.push_back(s.get());
     return segs;
   };
   std::vector<std::shared_ptr<const ndsid::stats::Segment>> keep_prior;

@@ -9,8 +9,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <future>
-#include <atomic>
 #include <memory>
 #include <optional>
 #include <nlohmann/json.hpp>
@@ -44,27 +42,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
   // Periodic fits run on a worker beside the reading, as in the daemon, and each is accepted
   // when the next is due (or at the end), before that one starts: the next fit's warm start and
   // prior come from it, so the snapshots, fits and estimates are those of fitting in line.
-  struct PendingFit {
-    std::shared_ptr<const pipeline::WindowSnapshot> snap;
-    std::future<identify::IdentificationResult> result;
-    std::shared_ptr<std::atomic<double>> fit_s;  // the fit's own time, set by the worker
-    adequacy::PlausibilityReport data_checks;    // the snapshot's data checks, made while it runs
-  };
-  std::optional<PendingFit> pending;
-  auto start_fit = [&] {
-    PendingFit p;
-    p.snap = std::make_shared<const pipeline::WindowSnapshot>(pipeline.Snapshot());
-    p.fit_s = std::make_shared<std::atomic<double>>(0.0);
-    p.result = std::async(std::launch::async, [snap = p.snap, identifier = pipeline.identifier(), warm = pipeline.WarmStart(),
-                                               prior = pipeline.Prior(), exact = pipeline.ExactDue(), fit_s = p.fit_s] {
-      const auto t0 = std::chrono::steady_clock::now();
-      identify::IdentificationResult r = pipeline::Pipeline::Fit(identifier, *snap, warm, prior, exact);
-      fit_s->store(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      return r;
-    });
-    p.data_checks = pipeline.CheckData(*p.snap);  // on this thread, beside the fit
-    pending = std::move(p);
-  };
+  std::optional<pipeline::FitJob> pending;
   auto accept_pending = [&] {  // waits for the running fit (rethrows its error) and records it
     if (!pending) return;
     const auto t_wait = std::chrono::steady_clock::now();
@@ -97,7 +75,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
       }
       if (options.identify_periodically && pipeline.IdentificationDue(pending ? pending->snap.get() : nullptr)) {
         accept_pending();
-        start_fit();
+        pending = pipeline.StartFit();
       }
       if (r.state == can::SourceState::kEnd) break;
     }

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "ndsid/common/error.h"
+#include "ndsid/stats/held_out.h"
 
 #include <algorithm>
 #include <cmath>
@@ -146,23 +147,13 @@ bool Pipeline::IdentificationDue(const WindowSnapshot* pending) const {
 
 WindowSnapshot Pipeline::Snapshot() const {
   WindowSnapshot snap;
-  const double frac = config_.identification.validation_fraction;
-  const int64_t every = frac > 0 ? std::max<int64_t>(2, std::llround(1.0 / frac)) : 0;
-  // Held-out drives: every k-th drive (k = 1/validation_fraction); with fewer than k drives in
-  // the window, the shortest one (training keeps most of the data), so that a validation RMSE
-  // exists whenever 2 drives do.
-  std::map<int64_t, double> drive_s;
-  for (const auto& seg : accumulator_.window()) drive_s[seg->drive_id] += seg->duration_s();
-  bool any_regular = false;
-  for (const auto& [d, s] : drive_s) any_regular = any_regular || (every > 0 && d % every == every - 1);
-  int64_t fallback = -1;
-  if (every > 0 && !any_regular && drive_s.size() >= 2) {
-    fallback = std::min_element(drive_s.begin(), drive_s.end(), [](const auto& a, const auto& b) { return a.second < b.second; })->first;
-  }
+  // Held-out drives (stats/held_out.h): every k-th drive (k = 1/validation_fraction); with fewer
+  // than k drives in the window, the shortest one (training keeps most of the data), so that a
+  // validation RMSE exists whenever 2 drives do.
+  const std::set<int64_t> held_out = stats::HeldOutDrives(accumulator_.window(), config_.identification.validation_fraction);
   for (const auto& seg : accumulator_.window()) {
     snap.keep_alive.push_back(seg);
-    const bool held_out = (every > 0 && seg->drive_id % every == every - 1) || seg->drive_id == fallback;
-    (held_out ? snap.validation : snap.training).push_back(seg.get());
+    (held_out.count(seg->drive_id) ? snap.validation : snap.training).push_back(seg.get());
   }
   if (snap.training.empty()) {  // a single drive: train on everything, no validation
     snap.training.swap(snap.validation);
@@ -218,6 +209,21 @@ std::shared_ptr<const identify::LinearizedWindow> Pipeline::Prior() const {
 bool Pipeline::ExactDue() const {
   const config::IdentificationConfig& c = config_.identification;
   return c.incremental && linearized_ && c.full_refit_every > 0 && linearized_->updates_since_full + 1 >= c.full_refit_every;
+}
+
+FitJob Pipeline::StartFit() const {
+  FitJob job;
+  job.snap = std::make_shared<const WindowSnapshot>(Snapshot());
+  job.fit_s = std::make_shared<std::atomic<double>>(0.0);
+  job.result = std::async(std::launch::async, [snap = job.snap, identifier = identifier_, warm = WarmStart(), prior = Prior(),
+                                               exact = ExactDue(), fit_s = job.fit_s] {
+    const auto t0 = std::chrono::steady_clock::now();
+    identify::IdentificationResult r = Fit(identifier, *snap, warm, prior, exact);
+    fit_s->store(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    return r;
+  });
+  job.data_checks = CheckData(*job.snap);  // on this thread, beside the fit
+  return job;
 }
 
 adequacy::PlausibilityReport Pipeline::CheckData(const WindowSnapshot& snap) const {

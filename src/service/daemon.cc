@@ -109,8 +109,7 @@ struct Daemon::Impl {
   std::atomic<bool> stop{false}, reload{false};
 
   struct Job {
-    std::shared_ptr<const pipeline::WindowSnapshot> snap;
-    std::future<identify::IdentificationResult> result;
+    pipeline::FitJob fit;
     int64_t started_ns = 0;
   };
   std::optional<Job> job;
@@ -265,30 +264,27 @@ struct Daemon::Impl {
 
   void StartJob() {
     Job j;
-    j.snap = std::make_shared<const pipeline::WindowSnapshot>(pipe().Snapshot());
     j.started_ns = MonoNs();
     // The worker owns copies of everything it touches (snapshot, identifier, warm start) and shares
-    // the incremental prior, which is immutable.
-    j.result = std::async(std::launch::async, [snap = j.snap, identifier = pipe().identifier(), warm = pipe().WarmStart(),
-                                               prior = pipe().Prior(), exact = pipe().ExactDue()] {
-      try {
-        return pipeline::Pipeline::Fit(identifier, *snap, warm, prior, exact);
-      } catch (const std::exception& e) {
-        identify::IdentificationResult r;
-        r.valid = false;
-        r.reason = std::string("identification failed: ") + e.what();
-        return r;
-      }
-    });
-    spdlog::debug("identification started: {} training / {} validation segments, {:.3f} gated h", j.snap->training.size(),
-                  j.snap->validation.size(), j.snap->gated_hours);
+    // the incremental prior, which is immutable; the data checks are made here meanwhile.
+    j.fit = pipe().StartFit();
+    spdlog::debug("identification started: {} training / {} validation segments, {:.3f} gated h", j.fit.snap->training.size(),
+                  j.fit.snap->validation.size(), j.fit.snap->gated_hours);
     job = std::move(j);
   }
 
   void AcceptJob() {
     Job j = std::move(*job);
     job.reset();
-    const pipeline::Estimate& e = pipe().Accept(*j.snap, j.result.get());
+    identify::IdentificationResult fit;
+    try {
+      fit = j.fit.result.get();
+    } catch (const std::exception& e) {  // never the end of the service: an invalid estimate, logged with the reason
+      fit = identify::IdentificationResult{};
+      fit.valid = false;
+      fit.reason = std::string("identification failed: ") + e.what();
+    }
+    const pipeline::Estimate& e = pipe().Accept(*j.fit.snap, std::move(fit), &j.fit.data_checks);
     ++identifications;
     if (e.fit.valid) {
       spdlog::info("identification {}: EG {:.4e} rad/(m/s^2) = {:.3f} deg/g (sigma {:.2e}), RMSE {:.3f}/{:.3f} m/s^2, "
@@ -305,7 +301,7 @@ struct Daemon::Impl {
   }
 
   void PollJob() {
-    if (job && job->result.wait_for(std::chrono::seconds(0)) == std::future_status::ready) AcceptJob();
+    if (job && job->fit.result.wait_for(std::chrono::seconds(0)) == std::future_status::ready) AcceptJob();
   }
 
   void PublishEstimate() { sink->PublishEstimate(MakeEstimateMessage(pipe().last_estimate(), pipe(), cfg(), identifications)); }
@@ -483,7 +479,7 @@ struct Daemon::Impl {
   int FinishData() {
     if (skipped_resume > 0) spdlog::info("skipped {} frames already in the learned state", skipped_resume);
     if (job) {
-      job->result.wait();
+      job->fit.result.wait();
       AcceptJob();
     }
     pipe().Finish();
@@ -508,7 +504,7 @@ struct Daemon::Impl {
     bool saved = Persist(true);
     if (job) {
       spdlog::info("waiting for the running identification (started {:.1f} s ago)", (MonoNs() - job->started_ns) * 1e-9);
-      job->result.wait();
+      job->fit.result.wait();
       AcceptJob();
       saved = Persist(true);
     }
@@ -530,7 +526,7 @@ Daemon::~Daemon() {
   Daemon* self = this;
   g_signal_target.compare_exchange_strong(self, nullptr);
   if (impl_->persist_job.valid()) impl_->persist_job.wait();
-  if (impl_->job) impl_->job->result.wait();
+  if (impl_->job) impl_->job->fit.result.wait();
 }
 
 int Daemon::Run() { return impl_->Run(); }

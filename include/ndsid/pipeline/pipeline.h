@@ -3,7 +3,9 @@
 // daemon; driven only by data timestamps, so live and replay take one code path.
 #pragma once
 
+#include <atomic>
 #include <functional>
+#include <future>
 #include <map>
 #include <memory>
 #include <deque>
@@ -61,6 +63,15 @@ struct WindowSnapshot {
   std::map<int64_t, adequacy::SpeedSums> wheel_speed;  // the window's drives' speed sums (plausibility)
 };
 
+// A periodic fit running on a worker thread beside the reading (the daemon, ndsid replay):
+// Pipeline::StartFit() makes it, Accept(*job.snap, job.result.get(), &job.data_checks) records it.
+struct FitJob {
+  std::shared_ptr<const WindowSnapshot> snap;
+  std::future<identify::IdentificationResult> result;  // get() waits for the fit and rethrows its error
+  std::shared_ptr<std::atomic<double>> fit_s;          // the fit's own time [s], set by the worker when it ends
+  adequacy::PlausibilityReport data_checks;            // CheckData(*snap), made on the starting thread meanwhile
+};
+
 class Pipeline {
  public:
   // Throws ConfigError when the configuration does not fit the DBC. config/db must outlive this.
@@ -91,6 +102,11 @@ class Pipeline {
   // The plausibility checks of a snapshot's data (kinematics, steering sign, wheel speeds): the
   // part of Accept's checks that does not depend on the fit. Touches no pipeline state.
   adequacy::PlausibilityReport CheckData(const WindowSnapshot& snap) const;
+  // Starts the due fit on a worker thread: a snapshot, then Fit on copies of everything it touches
+  // (snapshot, identifier, warm start, the exact-update schedule) and the shared, immutable prior,
+  // while the snapshot's data checks are made on the calling thread. The job touches no pipeline
+  // state; accept it before the next one starts (its result is the next one's warm start and prior).
+  FitJob StartFit() const;
   // Snapshot + Fit + Accept in one call (the CLI); final: the whole window's optimum (the final
   // fit; an exact update on the prior when there is one, else the whole window refitted).
   const Estimate& IdentifyNow(bool final = false);
