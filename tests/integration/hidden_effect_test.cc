@@ -30,6 +30,7 @@ struct HiddenCase {
   double eg_tolerance = 0.01;           // |EG / truth - 1| after the ladder
   bool added_before_ranking = false;    // added from model-free evidence before the first diagnosis (speed_scale from a_x)
   std::vector<std::string> ranked_first_in = {};  // if set: the first-ranked effect is one of these (a confounded group)
+  double speed_unskewed_within_s = -1;  // if >= 0 (no hidden speed latency): an applied speed shift stays within this
 };
 
 void PrintDiagnosis(const discover::Diagnosis& d) {
@@ -70,6 +71,9 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
       } else if (l.apply) {
         EXPECT_LT(std::abs(l.latency_s), 0.012);
       }
+    }
+    if (l.role == config::Role::kSpeed && c.speed_skew_s == 0 && c.speed_unskewed_within_s >= 0 && l.apply) {
+      EXPECT_LT(std::abs(l.latency_s), c.speed_unskewed_within_s) << "a speed latency the simulator does not have";
     }
     if (l.role == config::Role::kSpeed && c.speed_skew_s > 0 && c.align) {
       // A speed latency is weak (through v^2 and v r only) and found short: within 35 %
@@ -240,6 +244,7 @@ TEST(HiddenEffectLong, GyroLatencyFoundByTimeAlignmentWithTwoOutputs) {
   HiddenCase c{"gyro_lat", {"gyro_delay_ms=60"}, {}, {}, "", 0, 0};
   c.two_outputs = true;
   c.yaw_skew_s = 0.060;
+  c.speed_unskewed_within_s = 0.012;  // the build before applied -13.1 ms
   RunCase(c, 68, 1.5);
 }
 
@@ -250,7 +255,38 @@ TEST(HiddenEffectLong, GyroLatencyAndSteeringSkewSplitByTimeAlignmentWithTwoOutp
   HiddenCase c{"gyro_lat_steer", {"gyro_delay_ms=100", "steer_delay_ms=40"}, {}, {}, "", 0, 0, 0.040};
   c.two_outputs = true;
   c.yaw_skew_s = 0.100;
+  c.speed_unskewed_within_s = 0.012;
   RunCase(c, 168, 1.5);
+}
+
+// Step 0 on gyro latencies of other sizes, seeds and companions (two outputs): 30 and 150 ms
+// alone, 80 ms with a 60 ms steering skew, and 60 ms beside a gyro offset and beside a speed
+// offset, which the ladder then adds. Each latency within its tolerance, no spurious shift
+// applied, the companion added and nothing else, EG within 1 % (2.5 % with the speed offset:
+// its structural error, SpeedOffsetFoundWithTwoOutputs).
+TEST(HiddenEffectLong, GyroLatencyOfOtherSizesAndWithCompanionsWithTwoOutputs) {
+  struct Variant {
+    const char* name;
+    std::vector<std::string> simulated, expected;
+    double yaw_s, steer_s;
+    uint64_t seed;
+    double eg_tolerance;
+  };
+  const std::vector<Variant> variants = {
+      {"gyro30", {"gyro_delay_ms=30"}, {}, 0.030, 0, 301, 0.01},
+      {"gyro150", {"gyro_delay_ms=150"}, {}, 0.150, 0, 302, 0.01},
+      {"gyro80_steer60", {"gyro_delay_ms=80", "steer_delay_ms=60"}, {}, 0.080, 0.060, 303, 0.01},
+      {"gyro60_offset", {"gyro_delay_ms=60", "gyro_offset_degps=0.3"}, {"gyro_offset"}, 0.060, 0, 304, 0.01},
+      {"gyro60_speed_off", {"gyro_delay_ms=60", "speed_offset_kph=-2"}, {"speed_offset"}, 0.060, 0, 305, 0.025},
+  };
+  for (const Variant& v : variants) {
+    HiddenCase c{v.name, v.simulated, v.expected, {}, "", 0, 0, v.steer_s};
+    c.two_outputs = true;
+    c.yaw_skew_s = v.yaw_s;
+    c.eg_tolerance = v.eg_tolerance;
+    c.speed_unskewed_within_s = 0.012;  // the message phases' reach, as for the steering
+    RunCase(c, v.seed, 1.5);
+  }
 }
 
 // A speed-signal offset (-2 km/h, the vehicle speed only) with two outputs: a_y - v r leaves
