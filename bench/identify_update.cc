@@ -20,6 +20,7 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ndsid/config/config.h"
@@ -62,19 +63,11 @@ int main(int argc, char** argv) {
   // As Pipeline::Snapshot (stats/held_out.h): every k-th drive, or with none of those in the
   // window, the shortest drive once there are two.
   const double frac = std::getenv("NDSID_HELD_OUT") ? cfg.identification.validation_fraction : 0.0;
-  auto window = [&] {
-    id::SegmentList segs;
+  auto split = [&] {  // (training, validation)
+    std::pair<id::SegmentList, id::SegmentList> out;
     const std::set<int64_t> drives = ndsid::stats::HeldOutDrives(acc.window(), frac);
-    for (const auto& s : acc.window())
-      if (!drives.count(s->drive_id)) segs.push_back(s.get());
-    return segs;
-  };
-  auto validation = [&] {
-    id::SegmentList segs;
-    const std::set<int64_t> drives = ndsid::stats::HeldOutDrives(acc.window(), frac);
-    for (const auto& s : acc.window())
-      if (drives.count(s->drive_id)) segs.push_back(s.get());
-    return segs;
+    for (const auto& s : acc.window()) (drives.count(s->drive_id) ? out.second : out.first).push_back(s.get());
+    return out;
   };
   std::vector<std::shared_ptr<const ndsid::stats::Segment>> keep_prior;
   id::IdentificationResult prior_fit;
@@ -98,7 +91,8 @@ int main(int argc, char** argv) {
       if (!prior_fit.linearized && acc.gated_hours() >= prior_h) {
         keep_prior.assign(acc.window().begin(), acc.window().end());
         const auto t0 = std::chrono::steady_clock::now();
-        prior_fit = identifier.Identify(window(), validation(), std::nullopt, id::IncrementalUpdate{nullptr, 0.5, true});
+        const auto [train, held] = split();
+        prior_fit = identifier.Identify(train, held, std::nullopt, id::IncrementalUpdate{nullptr, 0.5, true});
         prior_s = Seconds(t0);
       }
       done = prior_fit.linearized && acc.gated_hours() >= want_h;
@@ -109,7 +103,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "the simulation gave no prior (%.2f gated h)\n", acc.gated_hours());
     return 1;
   }
-  const id::SegmentList segs = window(), val = validation();
+  const auto [segs, val] = split();
   const double rc = cfg.identification.relinearize_sigma;
   const auto t1 = std::chrono::steady_clock::now();
   const auto inc = identifier.Identify(segs, val, prior_fit.AllValues(), id::IncrementalUpdate{prior_fit.linearized, rc, true});

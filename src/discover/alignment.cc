@@ -293,13 +293,13 @@ RoleLatency JointLatency(const Identifier& id, const std::vector<double>& params
     out.note = "the joint refit failed: " + fit.reason;
     return out;
   }
-  const auto it = std::find_if(fit.effect_params.begin(), fit.effect_params.end(), [&](const auto& p) { return p.name == name; });
-  if (it == fit.effect_params.end()) {
+  const ParameterEstimate* shift = shift_of(fit);
+  if (shift == nullptr) {
     out.determined = false;
     out.note = "the joint refit has no " + name;
     return out;
   }
-  const ParameterEstimate& d = *it;
+  const ParameterEstimate& d = *shift;
   refitted = Extend(joint.spec(), fit.AllValues(), id.spec());
   out.latency_s = d.value;
   out.se_s = d.se;
@@ -335,9 +335,9 @@ std::vector<RoleLatency> EstimateRoleLatencies(const Identifier& two_or_one, con
     }
   };
   // Two outputs: the yaw rate first (a gyro latency reaches a_y through the bank observer and
-  // would pull the steering's shift), then steering and speed on a_y, then the yaw rate again
-  // on the data so aligned (a steering skew shifts the modelled yaw rate too: the first pass
-  // finds the latency relative to the skewed model, the second the rest). The two add up.
+  // would pull the steering's shift), then steering and speed on a_y. When the first pass applies
+  // nothing, the yaw rate is profiled again on the data aligned for the inputs (a steering skew
+  // shifts the modelled yaw rate too) and that is its result (below).
   // The first pass is a joint refit of model and shift (gyro_delay) like the inputs': the fit on
   // the skewed data has absorbed part of a gyro latency (heavily weighted, the yaw rate bends the
   // parameters towards it), so a profile with them held found half of it (60 ms read as 32 ms),

@@ -280,7 +280,6 @@ struct Daemon::Impl {
     try {
       fit = j.fit.result.get();
     } catch (const std::exception& e) {  // never the end of the service: an invalid estimate, logged with the reason
-      fit = identify::IdentificationResult{};
       fit.valid = false;
       fit.reason = std::string("identification failed: ") + e.what();
     }
