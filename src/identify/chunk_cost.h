@@ -102,6 +102,10 @@ inline std::unique_ptr<ChunkCost> MakeChunkCost(const Chunk& c, size_t burn, dou
 // cubic interpolation needs the gradient at the trial point) and again on accepting it. The
 // repeat is a copy here, answered only at bit-identical parameters and output weights.
 //
+// With keep_last(true) it also keeps that evaluation's own residuals and Jacobian (m and m x np
+// values), which TakeLast hands to the statistics at the optimum: the solver's last accepted
+// point is that optimum, so its chunks need not be simulated there again.
+//
 // full() is the chunk's own cost, for the identifier's passes that need the residual series.
 // One instance is evaluated by one thread at a time (Ceres evaluates each residual block on one
 // thread; the identifier's passes give each chunk to one).
@@ -114,6 +118,23 @@ class CompressedChunkCost : public ceres::CostFunction {
   }
 
   const ChunkCost& full() const { return *cost_; }
+  void keep_last(bool keep) { keep_last_ = keep; }
+
+  // The residuals e and Jacobian jac (row-major, m x np) of the last evaluation with a Jacobian
+  // if it was at bit-identical parameters and output weights (and kept); false otherwise. Moves
+  // them out: a second call returns false.
+  bool TakeLast(const double* theta, std::vector<double>& e, std::vector<double>& jac) const {
+    const OutputWeights w = *weights_;
+    const size_t np = static_cast<size_t>(cost_->parameter_block_sizes()[0]);
+    if (!valid_ || last_e_.empty() || std::memcmp(theta, theta_.data(), np * sizeof(double)) != 0 ||
+        std::memcmp(&w, &weights_at_, sizeof w) != 0)
+      return false;
+    e = std::move(last_e_);
+    jac = std::move(last_jac_);
+    last_e_.clear();
+    last_jac_.clear();
+    return true;
+  }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const int np = cost_->parameter_block_sizes()[0], m = cost_->num_residuals();
@@ -129,6 +150,8 @@ class CompressedChunkCost : public ceres::CostFunction {
     if (!(valid_ && std::memcmp(parameters[0], theta_.data(), static_cast<size_t>(np) * sizeof(double)) == 0 &&
           std::memcmp(&w, &weights_at_, sizeof w) == 0)) {
       valid_ = false;
+      last_e_.clear();
+      last_jac_.clear();
       std::vector<double> e(static_cast<size_t>(m)), jac(static_cast<size_t>(m) * np);
       double* jacs[] = {jac.data()};
       if (!cost_->Evaluate(parameters, e.data(), jacs)) return false;
@@ -148,6 +171,10 @@ class CompressedChunkCost : public ceres::CostFunction {
       theta_.assign(parameters[0], parameters[0] + np);
       weights_at_ = w;
       valid_ = true;
+      if (keep_last_) {
+        last_e_ = std::move(e);
+        last_jac_ = std::move(jac);
+      }
     }
     std::memcpy(residuals, rho_.data(), n_rho * sizeof(double));
     std::memcpy(jacobians[0], jac_.data(), n_rho * static_cast<size_t>(np) * sizeof(double));
@@ -160,6 +187,8 @@ class CompressedChunkCost : public ceres::CostFunction {
   mutable bool valid_ = false;
   mutable std::vector<double> theta_, rho_, jac_;  // the last evaluation with a Jacobian: [Q'r; s], [R; 0]
   mutable OutputWeights weights_at_;
+  bool keep_last_ = false;
+  mutable std::vector<double> last_e_, last_jac_;  // that evaluation's own residuals and Jacobian (keep_last)
 };
 
 }  // namespace ndsid::identify

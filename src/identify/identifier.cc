@@ -121,8 +121,18 @@ constexpr int kRelinearizeRounds = 4;
 // from so far, and the update is fitted as the whole window at once.
 constexpr double kEgCheckHopeless = 1.0;
 // An exact update (IncrementalUpdate::exact) relinearises every prior chunk the estimate lies
-// further than this many of its standard deviations from.
+// further than this many of its standard deviations from, once, at its first solution. After the
+// solve on those quadratics its EG check holds their error to kExactEgCheck of EG's standard
+// deviation (a twentieth of the 0.2 sigma every update keeps to the whole-window fit) and
+// kExactSigmaCheck of its variance; where it does not, every chunk is relinearised again and
+// the update solved again (also where only the variance is off: an exact update ends on a solve).
 constexpr double kExactSigma = 0.05;
+constexpr double kExactEgCheck = 0.01;
+constexpr double kExactSigmaCheck = 0.01;
+// An incremental update keeps its new chunks' last residuals and Jacobians for the statistics at
+// the optimum while they take at most this much memory (64 MiB hold about 150 one-minute chunks at
+// 50 Hz with both outputs and 8 parameters).
+constexpr size_t kKeepLastBytes = size_t{64} << 20;
 // The coarse start's solves (IdentificationConfig::coarse_min_chunks) stop after this many
 // iterations each.
 constexpr int kCoarseIterations = 25;
@@ -825,6 +835,14 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
   };
   add_costs(0);
+  // An update on a prior keeps each new chunk's last evaluation with its Jacobian for the
+  // statistics at the optimum (chunk_cost.h), up to kKeepLastBytes of them.
+  if (prior) {
+    size_t bytes = 0;
+    for (const auto& c : costs) bytes += static_cast<size_t>(c->full().num_residuals()) * (static_cast<size_t>(np) + 1) * sizeof(double);
+    if (bytes <= kKeepLastBytes)
+      for (auto& c : costs) c->keep_last(true);
+  }
   // With both outputs, the weights of the whole window: the new data's noise level per output at
   // the start values pooled with the prior's (its chunks' autocorrelation sums, unweighted), as a
   // full fit sets them from all the data. A prior that keeps each chunk's yaw-rate part is
@@ -1240,12 +1258,16 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     meat = meat_pred > 0 ? std::abs(meat) / meat_pred : 0.0;
     spdlog::debug("incremental: EG check over {} of {} prior chunks: the quadratics' error moves EG by {:.3g} sigma, its variance "
                   "by {:.3g} (bread) and {:.3g} (cluster meat)", sampled, all.size(), shift, bread, meat);
-    return {shift <= kEgCheck, bread <= kSigmaCheck && meat <= kSigmaCheck, shift};
+    const double eg_limit = update->exact ? kExactEgCheck : kEgCheck;
+    const double sigma_limit = update->exact ? kExactSigmaCheck : kSigmaCheck;
+    return {shift <= eg_limit, bread <= sigma_limit && meat <= sigma_limit, shift};
   };
   bool settled = !prior;
   mark(1);
   for (int round = 0; prior && summary.IsSolutionUsable(); ++round) {
-    std::vector<size_t> stale = stale_segments(theta, sigma_rule);
+    // An exact update's rule applies at its first solution; after that the ordinary rule and the
+    // exact update's tighter EG check.
+    std::vector<size_t> stale = stale_segments(theta, round == 0 ? sigma_rule : update->relinearize_sigma);
     const bool checked = stale.empty();
     const CheckResult check = checked ? eg_check() : CheckResult{};
     if (!check.eg || !check.sigma) {
@@ -1257,7 +1279,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
     if (checked && round == 0 && !(check.shift <= kEgCheckHopeless))
       return whole_window("incremental: the EG check found the prior's quadratics far off, so fitted as the whole window");
-    if (checked && check.eg) {
+    if (checked && check.eg && !update->exact) {
       // Only EG's variance is off: every prior chunk is relinearised at the solution for the
       // statistics below, without another solve (the step the fresh quadratics imply moves EG
       // by less than kEgCheck of its standard deviation: the check above).
@@ -1304,10 +1326,13 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     const ChunkCost& cost = costs[ci]->full();
     const int m = cost.num_residuals();
     std::vector<double>& e = at[ci].e;
-    e.resize(static_cast<size_t>(m));
-    std::vector<double> jac(static_cast<size_t>(m) * np);
-    double* jacs[] = {jac.data()};
-    cost.Evaluate(params, e.data(), jacs);
+    std::vector<double> jac;
+    if (!costs[ci]->TakeLast(theta.data(), e, jac)) {  // the solver's last evaluation is not this point's
+      e.resize(static_cast<size_t>(m));
+      jac.resize(static_cast<size_t>(m) * np);
+      double* jacs[] = {jac.data()};
+      cost.Evaluate(params, e.data(), jacs);
+    }
     Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jac.data(), m, np);
     at[ci].jtj = J.transpose() * J;  // the model output's Jacobian is -J: signs cancel here and below
     at[ci].score = J.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data(), m);
@@ -1630,7 +1655,8 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   mark(4);
   r.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   spdlog::debug("fit times: setup {:.3f} s, solve {:.3f} s ({} iterations), checks and relinearisation {:.3f} s, statistics at "
-                "the optimum {:.3f} s, held-out RMSE {:.3f} s", phase[0], phase[1], r.iterations, phase[2], phase[3], phase[4]);
+                "the optimum {:.3f} s, held-out RMSE {:.3f} s; {} chunks simulated, {} relinearised", phase[0], phase[1], r.iterations,
+                phase[2], phase[3], phase[4], r.chunks_simulated, r.chunks_relinearized);
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);
   if (!r.valid) r.reason = "non-finite EG or standard error";
   if (prior) {
