@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -39,10 +40,13 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
     total_size += sizes.back();
   }
   Progress progress("replay");
-  // Periodic fits run on a worker beside the reading, as in the daemon, and each is accepted
-  // when the next is due (or at the end), before that one starts: the next fit's warm start and
-  // prior come from it, so the snapshots, fits and estimates are those of fitting in line.
+  // Periodic fits run on a worker beside the reading, as in the daemon, one at a time: each is
+  // accepted before the next starts (the next fit's warm start and prior come from it). A fit due
+  // while the last one still runs takes its snapshot then and waits in `queued` while the reading
+  // goes on; it starts when the fits before it have been accepted. So the snapshots, fits and
+  // estimates are those of fitting in line, and the reading waits for no fit.
   std::optional<pipeline::FitJob> pending;
+  std::deque<std::shared_ptr<const pipeline::WindowSnapshot>> queued;
   auto accept_pending = [&] {  // waits for the running fit (rethrows its error) and records it
     if (!pending) return;
     const auto t_wait = std::chrono::steady_clock::now();
@@ -54,6 +58,16 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
     progress.Done();  // the log line on a line of its own
     spdlog::info("{:.2f} gated h: EG {:.3f} ± {:.3f} deg/g, {}", e.gated_hours, e.fit.eg_deg_per_g, e.fit.eg_se_deg_per_g,
                  adequacy::StateName(e.adequacy.state));
+  };
+  // Accepts the running fit once it has ended (with wait: when it ends) and starts the next
+  // queued one, until none has ended or none is left.
+  auto pump = [&](bool wait) {
+    while (pending && (wait || pending->result.wait_for(std::chrono::seconds(0)) == std::future_status::ready)) {
+      accept_pending();
+      if (queued.empty()) break;
+      pending = pipeline.StartFit(std::move(queued.front()));
+      queued.pop_front();
+    }
   };
   double size_done = 0, data_s_done = 0;
   uint64_t frames_done = 0;
@@ -73,9 +87,17 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
         const double done = total_size > 0 && f >= 0 ? (size_done + f * sizes[li]) / total_size : -1.0;
         progress.Update(done, frames_done + reader.counters().frames, data_s_done + 1e-9 * static_cast<double>(last_ns - first_ns));
       }
-      if (options.identify_periodically && pipeline.IdentificationDue(pending ? pending->snap.get() : nullptr)) {
-        accept_pending();
-        pending = pipeline.StartFit();
+      if (options.identify_periodically) {
+        pump(false);
+        const pipeline::WindowSnapshot* last = !queued.empty() ? queued.back().get() : pending ? pending->snap.get() : nullptr;
+        if (pipeline.IdentificationDue(last)) {
+          if (pending) {
+            queued.push_back(std::make_shared<const pipeline::WindowSnapshot>(pipeline.Snapshot()));
+            ++out.periodic_fits_queued;
+          } else {
+            pending = pipeline.StartFit();
+          }
+        }
       }
       if (r.state == can::SourceState::kEnd) break;
     }
@@ -93,7 +115,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
     out.source.time_backwards += c.time_backwards;
   }
   progress.Done();
-  accept_pending();  // before Finish: the last periodic fit saw the data up to its snapshot only
+  pump(true);  // before Finish: the last periodic fit saw the data up to its snapshot only
   pipeline.Finish();
   if (!pipeline.accumulator().window().empty()) pipeline.IdentifyNow(true);  // the final fit: the whole window's optimum
   out.history = pipeline.history();
@@ -357,10 +379,10 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
     size_t incremental = 0;
     for (size_t i = 0; i + 1 < outcome.history.size(); ++i) incremental += outcome.history[i].fit.chunks_from_prior > 0 ? 1 : 0;
     const double final_s = outcome.final_estimate ? outcome.final_estimate->fit.solve_seconds : 0.0;
-    std::printf("  time: %.1f s wall; %zu periodic identifications %.1f s beside the reading, %.1f s of it waited for "
-                "(%zu incremental, docs/incremental.md); final fit %.1f s (%s)\n",
+    std::printf("  time: %.1f s wall; %zu periodic identifications %.1f s beside the reading (%zu due while the last one "
+                "ran), %.1f s of it waited for (%zu incremental, docs/incremental.md); final fit %.1f s (%s)\n",
                 outcome.wall_s, outcome.history.empty() ? 0 : outcome.history.size() - 1, outcome.periodic_fit_wall_s,
-                outcome.periodic_fit_wait_s, incremental, final_s,
+                outcome.periodic_fits_queued, outcome.periodic_fit_wait_s, incremental, final_s,
                 outcome.final_estimate ? outcome.final_estimate->fit.update.c_str() : "none");
   }
   std::printf("  report: %s\n", report_path.c_str());

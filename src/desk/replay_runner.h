@@ -29,6 +29,7 @@ struct ReplayOutcome {
   double wall_s = 0;              // the whole replay, final identification included
   double periodic_fit_wall_s = 0; // the periodic re-identifications' own time (daemon's schedule)
   double periodic_fit_wait_s = 0; // of the wall time: the reading waiting for a periodic fit to end
+  size_t periodic_fits_queued = 0; // periodic fits due while the last one ran (snapshot taken, fitted after it)
 };
 
 // Replays the logs through `pipeline` (built from `config`); throws Error at set-up only

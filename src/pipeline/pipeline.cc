@@ -211,9 +211,11 @@ bool Pipeline::ExactDue() const {
   return c.incremental && linearized_ && c.full_refit_every > 0 && linearized_->updates_since_full + 1 >= c.full_refit_every;
 }
 
-FitJob Pipeline::StartFit() const {
+FitJob Pipeline::StartFit() const { return StartFit(std::make_shared<const WindowSnapshot>(Snapshot())); }
+
+FitJob Pipeline::StartFit(std::shared_ptr<const WindowSnapshot> snap) const {
   FitJob job;
-  job.snap = std::make_shared<const WindowSnapshot>(Snapshot());
+  job.snap = std::move(snap);
   job.fit_s = std::make_shared<std::atomic<double>>(0.0);
   job.result = std::async(std::launch::async, [snap = job.snap, identifier = identifier_, warm = WarmStart(), prior = Prior(),
                                                exact = ExactDue(), fit_s = job.fit_s] {

@@ -107,6 +107,9 @@ class Pipeline {
   // while the snapshot's data checks are made on the calling thread. The job touches no pipeline
   // state; accept it before the next one starts (its result is the next one's warm start and prior).
   FitJob StartFit() const;
+  // The same on a snapshot taken earlier (a replay that read on while the last fit ran): its fit
+  // is the one it would have been then, as long as every fit before it has been accepted.
+  FitJob StartFit(std::shared_ptr<const WindowSnapshot> snap) const;
   // Snapshot + Fit + Accept in one call (the CLI); final: the whole window's optimum (the final
   // fit; an exact update on the prior when there is one, else the whole window refitted).
   const Estimate& IdentifyNow(bool final = false);
