@@ -124,11 +124,7 @@ class CompressedChunkCost : public ceres::CostFunction {
   // if it was at bit-identical parameters and output weights (and kept); false otherwise. Moves
   // them out: a second call returns false.
   bool TakeLast(const double* theta, std::vector<double>& e, std::vector<double>& jac) const {
-    const OutputWeights w = *weights_;
-    const size_t np = static_cast<size_t>(cost_->parameter_block_sizes()[0]);
-    if (!valid_ || last_e_.empty() || std::memcmp(theta, theta_.data(), np * sizeof(double)) != 0 ||
-        std::memcmp(&w, &weights_at_, sizeof w) != 0)
-      return false;
+    if (last_e_.empty() || !CachedAt(theta, *weights_)) return false;
     e = std::move(last_e_);
     jac = std::move(last_jac_);
     last_e_.clear();
@@ -147,8 +143,7 @@ class CompressedChunkCost : public ceres::CostFunction {
     }
     const OutputWeights w = *weights_;
     const size_t n_rho = static_cast<size_t>(np) + 1;
-    if (!(valid_ && std::memcmp(parameters[0], theta_.data(), static_cast<size_t>(np) * sizeof(double)) == 0 &&
-          std::memcmp(&w, &weights_at_, sizeof w) == 0)) {
+    if (!CachedAt(parameters[0], w)) {
       valid_ = false;
       last_e_.clear();
       last_jac_.clear();
@@ -182,6 +177,12 @@ class CompressedChunkCost : public ceres::CostFunction {
   }
 
  private:
+  // Whether the last evaluation with a Jacobian was at bit-identical parameters and weights.
+  bool CachedAt(const double* theta, const OutputWeights& w) const {
+    const size_t np = static_cast<size_t>(cost_->parameter_block_sizes()[0]);
+    return valid_ && std::memcmp(theta, theta_.data(), np * sizeof(double)) == 0 && std::memcmp(&w, &weights_at_, sizeof w) == 0;
+  }
+
   std::unique_ptr<ChunkCost> cost_;
   std::shared_ptr<const OutputWeights> weights_;
   mutable bool valid_ = false;
