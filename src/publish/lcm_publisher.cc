@@ -18,7 +18,7 @@ namespace {
 constexpr int64_t kFailureLogInterval_ns = 10'000'000'000;  // at most one send-failure line per 10 s
 
 ndsid::estimate_t ToLcm(const EstimateMessage& m) {
-  ndsid::estimate_t o;
+  ndsid::estimate_t o{};  // value-initialised: LCM types have no constructor
   o.utime = m.utime;
   o.publish_utime = m.publish_utime;
   o.vehicle = m.vehicle;
@@ -61,7 +61,7 @@ ndsid::estimate_t ToLcm(const EstimateMessage& m) {
 }
 
 ndsid::status_t ToLcm(const StatusMessage& m) {
-  ndsid::status_t o;
+  ndsid::status_t o{};
   o.utime = m.utime;
   o.publish_utime = m.publish_utime;
   o.vehicle = m.vehicle;
@@ -91,7 +91,7 @@ ndsid::status_t ToLcm(const StatusMessage& m) {
 }
 
 ndsid::monitor_t ToLcm(const MonitorMessage& m) {
-  ndsid::monitor_t o;
+  ndsid::monitor_t o{};
   o.utime = m.utime;
   o.lat_accel_mps2 = m.lat_accel_mps2;
   o.lat_accel_model_mps2 = m.lat_accel_model_mps2;
@@ -234,7 +234,7 @@ class EstimateLayoutCheck {
 }  // namespace
 
 EstimateMessage DecodeEstimate(const std::string& bytes) {
-  ndsid::estimate_t o;
+  ndsid::estimate_t o{};  // value-initialised: LCM types have no constructor
   if (!EstimateLayoutCheck(bytes).Ok()) throw Error("estimate_t: cannot decode (truncated or implausible counts)");
   if (o.decode(bytes.data(), 0, static_cast<int>(bytes.size())) < 0) throw Error("estimate_t: cannot decode");
   EstimateMessage m;

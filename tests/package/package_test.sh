@@ -174,9 +174,32 @@ b = m.encode()
 assert ndsid.estimate_t.decode(b).vehicle == "x", "round trip"
 print("python: ndsid.estimate_t round trip,", len(b), "bytes")' || fail "the installed Python module"
 if [[ -f /usr/include/lcm/lcm-cpp.hpp ]] && command -v c++ >/dev/null; then
-  printf '#include <ndsid/estimate_t.hpp>\n#include <ndsid/status_t.hpp>\n#include <ndsid/monitor_t.hpp>\nint main() { ndsid::estimate_t e; return e.getEncodedSize() > 0 ? 0 : 1; }\n' >types.cc
+  # Value-initialised (LCM's C++ types have no constructor: a plain `estimate_t e;` leaves
+  # num_params indeterminate, and encoding it reads past the empty arrays).
+  cat >types.cc <<'CC'
+#include <ndsid/estimate_t.hpp>
+#include <ndsid/status_t.hpp>
+#include <ndsid/monitor_t.hpp>
+#include <vector>
+int main() {
+  ndsid::estimate_t e{};
+  e.vehicle = "x";
+  e.num_params = 1;
+  e.param_name = {"m"};
+  e.param_unit = {"kg"};
+  e.param_value = {1500.0};
+  e.param_sigma = {10.0};
+  e.param_fixed = {0};
+  e.param_at_bound = {0};
+  std::vector<char> buf(e.getEncodedSize());
+  if (buf.empty() || e.encode(buf.data(), 0, static_cast<int>(buf.size())) < 0) return 1;
+  ndsid::estimate_t d{};
+  if (d.decode(buf.data(), 0, static_cast<int>(buf.size())) < 0) return 2;
+  return d.vehicle == "x" && d.num_params == 1 && d.param_value[0] == 1500.0 ? 0 : 3;
+}
+CC
   c++ -std=c++17 -I"$root/usr/include" types.cc -o types && ./types || fail "the installed C++ headers"
-  pass "C++: the installed headers compile and encode"
+  pass "C++: the installed headers compile, encode and decode"
 fi
 unzip -l "$root/usr/share/ndsid/java/ndsid_lcmtypes.jar" 2>/dev/null | grep -q "ndsid/estimate_t.class" ||
   fail "ndsid_lcmtypes.jar lacks ndsid/estimate_t.class"
