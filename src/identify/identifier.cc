@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "active_set.h"
@@ -110,6 +111,15 @@ double NoiseLevel(const std::vector<std::unique_ptr<CostFn>>& costs, const std::
 constexpr double kRelinearizeStep = 0.25;
 constexpr size_t kEgCheckChunks = 32;
 constexpr double kEgCheck = 0.15;
+// The sample is simulated in two interleaved halves; the first decides alone when it holds at
+// least this many chunks and shows every error within its limit with kEgCheckClearZ of its
+// standard errors to spare (EgCheckEstimates::clear).
+constexpr size_t kEgCheckFirstHalfMin = 8;
+// An ordinary update whose solution lies within this many of the prior's standard deviations of
+// the estimate where the same quadratics last passed the check (LinearizedWindow::checked_at,
+// e.g. an update whose new data all went to held-out drives) is not checked again: the
+// quadratics' error there moves EG by about as much as it did at that check.
+constexpr double kRecheckSigma = 0.01;
 // ... and the errors of their predicted J'J and scores to change EG's variance by at most this
 // share (its standard deviation by about half of it).
 constexpr double kSigmaCheck = 0.1;
@@ -1210,57 +1220,81 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       double vs = 0, vs_pred = 0, vhv = 0, vhv_pred = 0;
     };
     std::vector<Sample> samples(picks.size());
-    ParallelFor(picks.size(), config_.threads, [&](size_t j) {
-      const auto [i, k] = all[picks[j]];
-      const std::vector<Chunk>& cuts = cut_segments.at(from_prior[i].seg);
-      if (k >= cuts.size()) return;
-      Sample& out = samples[j];
-      out.used = true;
-      const Chunk& c = cuts[k];
-      const auto cost = MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
-      const size_t m = static_cast<size_t>(cost->num_residuals());
-      std::vector<double> e0(m), e1(m);
-      const double* p0[] = {theta.data()};
-      const double* p1[] = {moved.data()};
-      const auto finite = [](double x) { return std::isfinite(x); };
-      if (!cost->Evaluate(p0, e0.data(), nullptr) || !cost->Evaluate(p1, e1.data(), nullptr) ||
-          !std::all_of(e0.begin(), e0.end(), finite) || !std::all_of(e1.begin(), e1.end(), finite)) {
-        out.ok = false;
-        return;
-      }
-      const Eigen::Map<const Eigen::VectorXd> a0(e0.data(), static_cast<long>(m)), a1(e1.data(), static_cast<long>(m));
-      const Eigen::VectorXd jv = (a1 - a0) * (v_max / kEps);
-      const LinearizedChunk& lc = from_prior[i].lin->chunks[k];
-      const Eigen::Map<const RowMajorMatrix> hc(lc.jtj.data(), np, np);
-      const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(lc.theta.data(), np);
-      out.vs = jv.dot(a0);
-      out.vs_pred = v.dot(Eigen::Map<const Eigen::VectorXd>(lc.score.data(), np) + hc * d);
-      out.vhv = jv.squaredNorm();
-      out.vhv_pred = v.dot(hc * v);
-    });
-    size_t sampled = 0;
-    double shift = 0, bread = 0, meat = 0, meat_pred = 0;
-    for (const Sample& x : samples) {
-      if (!x.ok) return {false, false};
-      if (!x.used) continue;
-      ++sampled;
-      shift += x.vs - x.vs_pred;
-      bread += x.vhv - x.vhv_pred;
-      meat += x.vs * x.vs - x.vs_pred * x.vs_pred;
-      meat_pred += x.vs_pred * x.vs_pred;
-    }
-    if (sampled == 0) return {};
-    const double up = static_cast<double>(all.size()) / static_cast<double>(sampled);
-    // EG moves by v . (the scores' error), scaled to the whole prior; EG's variance changes by
-    // the relative errors of its bread (g'H^-1 g = v'Hv) and of its cluster-robust meat.
-    shift = std::abs(shift * up) / sd;
-    bread = std::abs(bread * up) / g_hinv_g;
-    meat = meat_pred > 0 ? std::abs(meat) / meat_pred : 0.0;
-    spdlog::debug("incremental: EG check over {} of {} prior chunks: the quadratics' error moves EG by {:.3g} sigma, its variance "
-                  "by {:.3g} (bread) and {:.3g} (cluster meat)", sampled, all.size(), shift, bread, meat);
+    // The sample in two interleaved halves (picks 0, 2, 4, ... then 1, 3, 5, ...): the second is
+    // simulated only when the first does not already show the quadratics' errors within the limits
+    // with room for its own sampling error (EgCheckEstimates::clear); otherwise every pick decides.
+    auto simulate_half = [&](size_t half) {
+      ParallelFor((picks.size() + 1 - half) / 2, config_.threads, [&](size_t h) {
+        const size_t j = 2 * h + half;
+        const auto [i, k] = all[picks[j]];
+        const std::vector<Chunk>& cuts = cut_segments.at(from_prior[i].seg);
+        if (k >= cuts.size()) return;
+        Sample& out = samples[j];
+        out.used = true;
+        const Chunk& c = cuts[k];
+        const auto cost = MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
+        const size_t m = static_cast<size_t>(cost->num_residuals());
+        std::vector<double> e0(m), e1(m);
+        const double* p0[] = {theta.data()};
+        const double* p1[] = {moved.data()};
+        const auto finite = [](double x) { return std::isfinite(x); };
+        if (!cost->Evaluate(p0, e0.data(), nullptr) || !cost->Evaluate(p1, e1.data(), nullptr) ||
+            !std::all_of(e0.begin(), e0.end(), finite) || !std::all_of(e1.begin(), e1.end(), finite)) {
+          out.ok = false;
+          return;
+        }
+        const Eigen::Map<const Eigen::VectorXd> a0(e0.data(), static_cast<long>(m)), a1(e1.data(), static_cast<long>(m));
+        const Eigen::VectorXd jv = (a1 - a0) * (v_max / kEps);
+        const LinearizedChunk& lc = from_prior[i].lin->chunks[k];
+        const Eigen::Map<const RowMajorMatrix> hc(lc.jtj.data(), np, np);
+        const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(lc.theta.data(), np);
+        out.vs = jv.dot(a0);
+        out.vs_pred = v.dot(Eigen::Map<const Eigen::VectorXd>(lc.score.data(), np) + hc * d);
+        out.vhv = jv.squaredNorm();
+        out.vhv_pred = v.dot(hc * v);
+      });
+    };
     const double eg_limit = update->exact ? kExactEgCheck : kEgCheck;
     const double sigma_limit = update->exact ? kExactSigmaCheck : kSigmaCheck;
-    return {shift <= eg_limit, bread <= sigma_limit && meat <= sigma_limit, shift};
+    // The estimates from the samples of one half (half 0 or 1) or both (2).
+    auto estimate = [&](int half) -> std::optional<EgCheckEstimates> {
+      std::vector<EgCheckSample> used;
+      for (size_t j = 0; j < samples.size(); ++j) {
+        if (half != 2 && static_cast<int>(j % 2) != half) continue;
+        const Sample& x = samples[j];
+        if (!x.ok) return std::nullopt;
+        if (x.used) used.push_back({x.vs, x.vs_pred, x.vhv, x.vhv_pred});
+      }
+      return EstimateEgCheck(used, all.size(), sd, g_hinv_g);
+    };
+    simulate_half(0);
+    std::optional<EgCheckEstimates> est = estimate(0);
+    if (!est) return {false, false};
+    const bool early = picks.size() >= 2 * kEgCheckFirstHalfMin && est->sampled > 0 && est->clear(eg_limit, sigma_limit);
+    if (!early) {
+      simulate_half(1);
+      est = estimate(2);
+      if (!est) return {false, false};
+      if (est->sampled == 0) return {};
+    }
+    spdlog::debug("incremental: EG check over {} of {} prior chunks{}: the quadratics' error moves EG by {:.3g} sigma (+- {:.2g}), its "
+                  "variance by {:.3g} (bread) and {:.3g} (cluster meat)", est->sampled, all.size(), early ? " (the first half sufficed)" : "",
+                  est->shift, est->shift_se, est->bread, est->meat);
+    return {est->shift <= eg_limit, est->bread <= sigma_limit && est->meat <= sigma_limit, est->shift};
+  };
+  // kRecheckSigma: the same quadratics (every segment of the prior in the fit) already passed the
+  // check next to this solution.
+  auto checked_before = [&]() {
+    if (update->exact || prior->checked_at.size() != static_cast<size_t>(np) || from_prior.size() != prior->segments.size())
+      return false;
+    const double level = prior_level();
+    if (!(level > 0)) return false;
+    const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) -
+                              Eigen::Map<const Eigen::VectorXd>(prior->checked_at.data(), np);
+    const double m = d.dot(prior_jtj() * d) / level;
+    if (!(m <= kRecheckSigma * kRecheckSigma)) return false;
+    spdlog::debug("incremental: EG check skipped: the solution lies {:.2g} sigma from where the same quadratics passed it", std::sqrt(m));
+    return true;
   };
   bool settled = !prior;
   mark(1);
@@ -1269,7 +1303,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     // exact update's tighter EG check.
     std::vector<size_t> stale = stale_segments(theta, round == 0 ? sigma_rule : update->relinearize_sigma);
     const bool checked = stale.empty();
-    const CheckResult check = checked ? eg_check() : CheckResult{};
+    const CheckResult check = checked && !checked_before() ? eg_check() : CheckResult{};
     if (!check.eg || !check.sigma) {
       for (size_t i = 0; i < from_prior.size(); ++i) stale.push_back(i);
     }
@@ -1675,6 +1709,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     lw->chunk_s = config_.chunk_s;
     lw->burn_in_s = config_.burn_in_s;
     lw->updates_since_full = prior && r.chunks_from_prior > 0 && !update->exact ? prior->updates_since_full + 1 : 0;
+    lw->checked_at = theta;  // settled: checked there, exact there, or every chunk fresh
     std::map<const stats::Segment*, const LinearizedSegment*> kept;
     for (const PriorSegment& ps : from_prior) kept[ps.seg] = ps.lin;
     std::map<const stats::Segment*, std::vector<size_t>> fresh;

@@ -57,6 +57,11 @@ struct LinearizedWindow {
   // Empty in states written before they were kept (the held-out drives are then simulated).
   std::vector<LinearizedSegment> held_out;
   int updates_since_full = 0;  // incremental updates since the last full-window refit
+  // The estimate of the fit that built this window, where its quadratics passed the EG check (or
+  // were all fresh): an update whose solution stays within a hundredth of a standard deviation of
+  // it on the same quadratics need not check them again. Not part of the learned state (a
+  // restored window has none, and its first update checks).
+  std::vector<double> checked_at;
 
   size_t chunks() const;
   // Whether every chunk keeps its yaw-rate part (two outputs): only then can it be re-weighted.
