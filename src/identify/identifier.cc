@@ -760,11 +760,18 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
     return out;
   };
-  auto stale_segments = [&](const std::vector<double>& at, double rule) {
+  // The prior's J'J and noise level, taken once for the guards that read them at one state of
+  // the prior (the distance rule, the re-check distance and the EG check of one round).
+  struct PriorMoments {
+    Eigen::MatrixXd h;
+    double level;
+  };
+  auto prior_moments = [&]() { return PriorMoments{prior_jtj(), prior_level()}; };
+  auto stale_segments = [&](const std::vector<double>& at, double rule, const PriorMoments& pm) {
     std::vector<size_t> out;
     if (from_prior.empty()) return out;
-    const Eigen::MatrixXd h = prior_jtj();
-    const double level = prior_level();
+    const Eigen::MatrixXd& h = pm.h;
+    const double level = pm.level;
     if (!(level > 0)) return out;
     const Eigen::Map<const Eigen::VectorXd> x(at.data(), np);
     for (size_t i = 0; i < from_prior.size(); ++i) {
@@ -953,7 +960,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     // At the start, the distance rule of an ordinary update even for an exact one: the start (the
     // last estimate) is not the solution, and the exact rule applies there (after the solve), so
     // relinearising every chunk here too would only be done again.
-    if (!relinearize(stale_segments(theta, update->relinearize_sigma))) return whole_window(kNotRelinearized);
+    if (!relinearize(stale_segments(theta, update->relinearize_sigma, prior_moments()))) return whole_window(kNotRelinearized);
     set_quadratic();
     problem.AddResidualBlock(&quadratic, nullptr, theta.data());
   }
@@ -1173,7 +1180,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     bool sigma = true;  // ... and its variance by at most kSigmaCheck
     double shift = 0;   // that move [sigma]
   };
-  auto eg_check = [&]() -> CheckResult {
+  auto eg_check = [&](const PriorMoments& pm) -> CheckResult {
     std::vector<std::pair<size_t, size_t>> all;  // (prior segment, chunk)
     for (size_t i = 0; i < from_prior.size(); ++i)
       for (size_t k = 0; k < from_prior[i].lin->chunks.size(); ++k) all.emplace_back(i, k);
@@ -1184,7 +1191,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     for (int i = 0; i < np; ++i)
       if (!bounds[i].fixed) fr.push_back(i);
     const int nf = static_cast<int>(fr.size());
-    const Eigen::MatrixXd h = prior_jtj();
+    const Eigen::MatrixXd& h = pm.h;
     std::vector<bool> fixed_params(static_cast<size_t>(np));
     for (int i = 0; i < np; ++i) fixed_params[static_cast<size_t>(i)] = bounds[i].fixed;
     const Eigen::VectorXd eg_g = EgGradientTheta(theta, scale, wheelbase_m_, fixed_params);
@@ -1199,7 +1206,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     for (int a = 0; a < nf; ++a) v[fr[a]] = vf[a];
     const double v_max = v.lpNorm<Eigen::Infinity>();
     const double g_hinv_g = gf.dot(vf);
-    const double sd = std::sqrt(std::max(0.0, prior_level() * g_hinv_g));
+    const double sd = std::sqrt(std::max(0.0, pm.level * g_hinv_g));
     if (!(v_max > 0) || !(sd > 0)) return {false, false};
     // Each sampled chunk simulated at theta and at theta + eps v / |v|: its residuals e and the
     // directional derivative J v (forward difference), against its quadratic's predictions:
@@ -1256,11 +1263,11 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     };
     const double eg_limit = update->exact ? kExactEgCheck : kEgCheck;
     const double sigma_limit = update->exact ? kExactSigmaCheck : kSigmaCheck;
-    // The estimates from the samples of one half (half 0 or 1) or both (2).
-    auto estimate = [&](int half) -> std::optional<EgCheckEstimates> {
+    // The estimates from the first half's samples or from all of them; none where a sampled chunk
+    // could not be simulated.
+    auto estimate = [&](bool first_half) -> std::optional<EgCheckEstimates> {
       std::vector<EgCheckSample> used;
-      for (size_t j = 0; j < samples.size(); ++j) {
-        if (half != 2 && static_cast<int>(j % 2) != half) continue;
+      for (size_t j = 0; j < samples.size(); j += first_half ? 2 : 1) {
         const Sample& x = samples[j];
         if (!x.ok) return std::nullopt;
         if (x.used) used.push_back({x.vs, x.vs_pred, x.vhv, x.vhv_pred});
@@ -1268,12 +1275,12 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
       return EstimateEgCheck(used, all.size(), sd, g_hinv_g);
     };
     simulate_half(0);
-    std::optional<EgCheckEstimates> est = estimate(0);
+    std::optional<EgCheckEstimates> est = estimate(true);
     if (!est) return {false, false};
-    const bool early = picks.size() >= 2 * kEgCheckFirstHalfMin && est->sampled > 0 && est->clear(eg_limit, sigma_limit);
+    const bool early = picks.size() >= 2 * kEgCheckFirstHalfMin && est->clear(eg_limit, sigma_limit);
     if (!early) {
       simulate_half(1);
-      est = estimate(2);
+      est = estimate(false);
       if (!est) return {false, false};
       if (est->sampled == 0) return {};
     }
@@ -1284,14 +1291,13 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   };
   // kRecheckSigma: the same quadratics (every segment of the prior in the fit) already passed the
   // check next to this solution.
-  auto checked_before = [&]() {
+  auto checked_before = [&](const PriorMoments& pm) {
     if (update->exact || prior->checked_at.size() != static_cast<size_t>(np) || from_prior.size() != prior->segments.size())
       return false;
-    const double level = prior_level();
-    if (!(level > 0)) return false;
+    if (!(pm.level > 0)) return false;
     const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) -
                               Eigen::Map<const Eigen::VectorXd>(prior->checked_at.data(), np);
-    const double m = d.dot(prior_jtj() * d) / level;
+    const double m = d.dot(pm.h * d) / pm.level;
     if (!(m <= kRecheckSigma * kRecheckSigma)) return false;
     spdlog::debug("incremental: EG check skipped: the solution lies {:.2g} sigma from where the same quadratics passed it", std::sqrt(m));
     return true;
@@ -1301,9 +1307,10 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   for (int round = 0; prior && summary.IsSolutionUsable(); ++round) {
     // An exact update's rule applies at its first solution; after that the ordinary rule and the
     // exact update's tighter EG check.
-    std::vector<size_t> stale = stale_segments(theta, round == 0 ? sigma_rule : update->relinearize_sigma);
+    const PriorMoments pm = prior_moments();
+    std::vector<size_t> stale = stale_segments(theta, round == 0 ? sigma_rule : update->relinearize_sigma, pm);
     const bool checked = stale.empty();
-    const CheckResult check = checked && !checked_before() ? eg_check() : CheckResult{};
+    const CheckResult check = checked && !checked_before(pm) ? eg_check(pm) : CheckResult{};
     if (!check.eg || !check.sigma) {
       for (size_t i = 0; i < from_prior.size(); ++i) stale.push_back(i);
     }

@@ -60,8 +60,8 @@ struct EgCheckSample {
 //   bread  |total/n sum(vhv - vhv_pred)| / g'H^-1g  the relative error of EG's variance's bread;
 //   meat   |sum(vs^2 - vs_pred^2)| / sum(vs_pred^2) that of its cluster-robust meat (a ratio).
 // Each with its standard error from the spread of the sampled chunks' terms, as for a simple
-// random sample of the chunks (the sums scaled: total s / sqrt(n); the ratio's by the usual
-// linearisation); 0 below two samples.
+// random sample of the chunks (the sums scaled: total s / sqrt(n); the ratio's by the jackknife,
+// infinite where leaving one chunk out leaves no predicted meat); 0 below two samples.
 struct EgCheckEstimates {
   size_t sampled = 0;
   double shift = 0, shift_se = 0;
