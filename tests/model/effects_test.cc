@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "ndsid/common/error.h"
@@ -170,6 +172,64 @@ TEST(ModelSpec, OrdersEffectsAndRejectsUnknownOrRepeated) {
   EXPECT_EQ(spec.Describe(), "single-track + steer_offset + roll");
   EXPECT_THROW(ModelSpec::FromNames({"warp_drive"}), ConfigError);
   EXPECT_THROW(ModelSpec::FromNames({"roll", "roll"}), ConfigError);
+}
+
+
+// Catches: an effect's term marked absent (Effect::terms(), found by EffectImpl at compile time)
+// although the effect defines it: SimulateModel skips the terms marked absent, so the term would
+// silently drop out of every simulation. Each term marked absent must be the default's no-op at
+// the effect's typical (non-neutral) parameter values; and two effects' terms are the hooks
+// their sources define (a detection that marks every term present would only cost time).
+TEST(Effects, TermsMarkedAbsentAreNoOps) {
+  const Stretch s;
+  const InputSeries series = s.series();
+  const Params<double> p = Params<double>::FromArray(kBase.data());
+  const State<double> x{0.01, 0.2};
+  const AxleSlip<double> slip{0.02, -0.01};
+  const MeasurementContext<double> m{2.0, 0.3, 0.2, 20.0};
+  const ModelInputs<double> u{0.1, 20.0, 0.05, 0.21, true};
+  for (const std::string& name : BuiltinEffectNames()) {
+    const ModelSpec spec = ModelSpec::FromNames({name});
+    const Effect& effect = *spec.effects().at(0);
+    const Effect::Terms t = effect.terms();
+    std::vector<double> eta;
+    for (int i = kNumParams; i < spec.num_params(); ++i) eta.push_back(spec.effect_param(i)->typical);
+    const std::vector<double> states0(static_cast<size_t>(std::max(1, spec.num_states())), 0.37);
+    if (!t.inputs) {
+      ModelInputs<double> v = u;
+      effect.Inputs(eta.data(), series, 10, v);
+      EXPECT_TRUE(v.steer_rad == u.steer_rad && v.speed_mps == u.speed_mps && v.bank_mps2 == u.bank_mps2 &&
+                  v.yaw_rate_meas_radps == u.yaw_rate_meas_radps) << name;
+    }
+    if (!t.forces) {
+      ForceTerms<double> f{1000.0, 2000.0, 0.1, 0.2};
+      effect.Forces(eta.data(), p, kL, slip, x, u, states0.data(), f);
+      EXPECT_TRUE(f.force_front_n == 1000.0 && f.force_rear_n == 2000.0 && f.gravity_lat_mps2 == 0.1 &&
+                  f.yaw_accel_radps2 == 0.2) << name;
+    }
+    if (!t.measure) {
+      EXPECT_EQ(effect.Measure(eta.data(), m, states0.data()), 0.0) << name;
+    }
+    if (!t.measure_yaw_rate) {
+      EXPECT_EQ(effect.MeasureYawRate(eta.data(), m, states0.data()), 0.0) << name;
+    }
+    if (!t.init_states) {
+      std::vector<double> st = states0;
+      effect.InitStates(eta.data(), p, kL, u, x, 2.0, st.data());
+      EXPECT_EQ(st, states0) << name;
+    }
+    if (!t.advance_states) {
+      std::vector<double> st = states0;
+      effect.AdvanceStates(eta.data(), p, kL, u, u, x, x, 2.0, 0.02, st.data());
+      EXPECT_EQ(st, states0) << name;
+    }
+  }
+  const Effect::Terms gyro = ModelSpec::FromNames({"gyro_offset"}).effects().at(0)->terms();
+  EXPECT_TRUE(gyro.inputs && gyro.measure_yaw_rate);
+  EXPECT_FALSE(gyro.forces || gyro.measure || gyro.init_states || gyro.advance_states);
+  const Effect::Terms bank = ModelSpec::FromNames({"road_bank"}).effects().at(0)->terms();
+  EXPECT_TRUE(bank.forces && bank.init_states && bank.advance_states);
+  EXPECT_FALSE(bank.inputs || bank.measure || bank.measure_yaw_rate);
 }
 
 }  // namespace

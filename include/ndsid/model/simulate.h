@@ -50,42 +50,58 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
   const Params<T> p = Params<T>::FromArray(params);
   const auto& effects = spec.effects();
   const size_t ne = effects.size();
+  std::vector<Effect::Terms> terms(ne);  // the terms each effect has (a default adds nothing)
+  for (size_t e = 0; e < ne; ++e) terms[e] = effects[e]->terms();
   std::vector<T> states(static_cast<size_t>(spec.num_states()), T(0.0));
   auto eta = [&](size_t e) { return params + spec.param_offset(e); };
   auto st = [&](size_t e) { return states.data() + spec.state_offset(e); };
 
   auto inputs_at = [&](size_t k) {
     ModelInputs<T> u{T(in.steer(k)), T(in.speed(k)), T(in.bank(k)), T(in.yaw_rate(k)), in.yaw_rate_radps != nullptr};
-    for (size_t e = 0; e < ne; ++e) effects[e]->Inputs(eta(e), in, k, u);
+    for (size_t e = 0; e < ne; ++e) if (terms[e].inputs) effects[e]->Inputs(eta(e), in, k, u);
     return u;
   };
-  auto derivative = [&](const State<T>& x, const ModelInputs<T>& u) {
-    const AxleSlip<T> slip = SlipAngles(p, l, x, u.steer_rad, u.speed_mps);
+  // The base model's equations (single_track.h: SlipAngles, DerivativeFromForces) with what
+  // does not change along the stretch taken out of the loop: the parameters' reciprocals and
+  // lh once, and at each input point (three per step, k2 and k3 share the midpoint) 1/v and the
+  // road-wheel angle. Divisions become multiplications by reciprocals (equal to the divisions
+  // within a unit in the last place); a Jet division costs a multiplication's work plus a scalar
+  // division that every following term waits on, and the loop had 28 of them per step.
+  const T lh = T(l) - p.lv;
+  const T inv_is = T(1.0) / p.is, inv_m = T(1.0) / p.m, inv_jz = T(1.0) / p.Jz;
+  struct AtInputs {
+    T inv_speed;  // 1 / v
+    T delta;      // road-wheel angle d_sw / is
+  };
+  auto at_inputs = [&](const ModelInputs<T>& u) { return AtInputs{T(1.0) / u.speed_mps, u.steer_rad * inv_is}; };
+  auto derivative = [&](const State<T>& x, const ModelInputs<T>& u, const AtInputs& a) {
+    const T r_by_v = x.r * a.inv_speed;
+    const AxleSlip<T> slip{a.delta - x.beta - p.lv * r_by_v, lh * r_by_v - x.beta};
     ForceTerms<T> f{p.cv * slip.front, p.ch * slip.rear, T(0.0), T(0.0)};
-    for (size_t e = 0; e < ne; ++e) effects[e]->Forces(eta(e), p, l, slip, x, u, st(e), f);
-    Derivative<T> d = DerivativeFromForces(p, l, x, u.speed_mps, f.force_front_n, f.force_rear_n);
-    d.beta_dot += f.gravity_lat_mps2 / u.speed_mps;
-    d.r_dot += f.yaw_accel_radps2;
-    return d;
+    for (size_t e = 0; e < ne; ++e) if (terms[e].forces) effects[e]->Forces(eta(e), p, l, slip, x, u, st(e), f);
+    const T a_y = (f.force_front_n + f.force_rear_n) * inv_m;
+    // beta' = (a_y + gravity) / v - r ;  r' = (lv Fv - lh Fh) / Jz + yaw moment / Jz
+    return Derivative<T>{(a_y + f.gravity_lat_mps2) * a.inv_speed - x.r,
+                         (p.lv * f.force_front_n - lh * f.force_rear_n) * inv_jz + f.yaw_accel_radps2, a_y};
   };
   auto measure = [&](const Derivative<T>& d, const State<T>& x, const ModelInputs<T>& u) {
     T a = d.a_y;
     const MeasurementContext<T> m{d.a_y, d.r_dot, x.r, u.speed_mps};
-    for (size_t e = 0; e < ne; ++e) a += effects[e]->Measure(eta(e), m, st(e));
+    for (size_t e = 0; e < ne; ++e) if (terms[e].measure) a += effects[e]->Measure(eta(e), m, st(e));
     return a;
   };
   auto measure_yaw_rate = [&](const Derivative<T>& d, const State<T>& x, const ModelInputs<T>& u) {
     T r = x.r;
     const MeasurementContext<T> m{d.a_y, d.r_dot, x.r, u.speed_mps};
-    for (size_t e = 0; e < ne; ++e) r += effects[e]->MeasureYawRate(eta(e), m, st(e));
+    for (size_t e = 0; e < ne; ++e) if (terms[e].measure_yaw_rate) r += effects[e]->MeasureYawRate(eta(e), m, st(e));
     return r;
   };
 
   ModelInputs<T> u0 = inputs_at(0);
   State<T> x = SteadyState(p, l, u0.steer_rad, u0.speed_mps);
   {
-    const Derivative<T> d0 = derivative(x, u0);
-    for (size_t e = 0; e < ne; ++e) effects[e]->InitStates(eta(e), p, l, u0, x, d0.a_y, st(e));
+    const Derivative<T> d0 = derivative(x, u0, at_inputs(u0));
+    for (size_t e = 0; e < ne; ++e) if (terms[e].init_states) effects[e]->InitStates(eta(e), p, l, u0, x, d0.a_y, st(e));
   }
   const size_t ns = static_cast<size_t>(spec.num_states());
   if (trace) {
@@ -97,8 +113,9 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
   // Constants enter as doubles: a Jet times a double is the Jet times the constant Jet to the
   // last bit (for finite values), at a fraction of the work.
   const double half = 0.5 * in.dt_s, full = in.dt_s, sixth = in.dt_s / 6.0;
+  AtInputs a0 = at_inputs(u0);
   for (size_t k = 0; k < n; ++k) {
-    const Derivative<T> k1 = derivative(x, u0);
+    const Derivative<T> k1 = derivative(x, u0, a0);
     a_meas_out[k] = measure(k1, x, u0);
     if (r_meas_out || trace) {
       const T r_meas = measure_yaw_rate(k1, x, u0);
@@ -115,14 +132,16 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
     const ModelInputs<T> um{(u0.steer_rad + u1.steer_rad) * 0.5, (u0.speed_mps + u1.speed_mps) * 0.5,
                             (u0.bank_mps2 + u1.bank_mps2) * 0.5, (u0.yaw_rate_meas_radps + u1.yaw_rate_meas_radps) * 0.5,
                             u0.yaw_rate_measured};
-    const Derivative<T> k2 = derivative({x.beta + k1.beta_dot * half, x.r + k1.r_dot * half}, um);
-    const Derivative<T> k3 = derivative({x.beta + k2.beta_dot * half, x.r + k2.r_dot * half}, um);
-    const Derivative<T> k4 = derivative({x.beta + k3.beta_dot * full, x.r + k3.r_dot * full}, u1);
+    const AtInputs am = at_inputs(um), a1 = at_inputs(u1);
+    const Derivative<T> k2 = derivative({x.beta + k1.beta_dot * half, x.r + k1.r_dot * half}, um, am);
+    const Derivative<T> k3 = derivative({x.beta + k2.beta_dot * half, x.r + k2.r_dot * half}, um, am);
+    const Derivative<T> k4 = derivative({x.beta + k3.beta_dot * full, x.r + k3.r_dot * full}, u1, a1);
     const State<T> x1{x.beta + (k1.beta_dot + k2.beta_dot * 2.0 + k3.beta_dot * 2.0 + k4.beta_dot) * sixth,
                       x.r + (k1.r_dot + k2.r_dot * 2.0 + k3.r_dot * 2.0 + k4.r_dot) * sixth};
-    for (size_t e = 0; e < ne; ++e) effects[e]->AdvanceStates(eta(e), p, l, u0, u1, x, x1, k1.a_y, in.dt_s, st(e));
+    for (size_t e = 0; e < ne; ++e) if (terms[e].advance_states) effects[e]->AdvanceStates(eta(e), p, l, u0, u1, x, x1, k1.a_y, in.dt_s, st(e));
     x = x1;
     u0 = u1;
+    a0 = a1;
   }
 }
 
