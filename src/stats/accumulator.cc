@@ -102,7 +102,10 @@ void Accumulator::CommitPending() {
   gated_s_ += pending_gated_s_;
   pending_gated_s_ = 0;
   pending_samples_ = 0;
-  for (auto& s : pending_segments_) window_.push_back(std::move(s));
+  for (auto& s : pending_segments_) {
+    window_.push_back(std::move(s));
+    RecordStep('c');
+  }
   pending_segments_.clear();
 }
 
@@ -120,7 +123,13 @@ void Accumulator::CloseSegment() {
   } else {
     pending_segments_.push_back(std::move(seg));
   }
-  // Evict the oldest segments beyond the window (by accepted duration).
+  RecordStep(drive_used_ ? 'a' : 'h');
+  EvictBeyondWindow();
+}
+
+// Evict the oldest segments beyond the window (by accepted duration).
+void Accumulator::EvictBeyondWindow() {
+  if (record_steps_) return;  // a merge replays the steps instead (Append)
   double total = window_hours() * 3600.0;
   while (!window_.empty() && total - window_.front()->duration_s() >= window_s_) {
     total -= window_.front()->duration_s();
@@ -147,6 +156,37 @@ void Accumulator::Finish() {
   CloseSegment();
   CloseDrive();
   resume_open_ = false;
+}
+
+void Accumulator::Append(const Accumulator& later, const std::string& steps, int64_t drive_offset) {
+  if (drive_open_ || later.drive_open_) throw Error("accumulator append: a drive is still open (finish both first)");
+  if (!later.record_steps_ || later.counters_.evicted_segments != 0)
+    throw Error("accumulator append: the later accumulator did not record its window steps from its start");
+  const auto appended = static_cast<size_t>(std::count_if(steps.begin(), steps.end(), [](char c) { return c == 'a' || c == 'c'; }));
+  if (appended != later.window_.size() || steps.find_first_not_of("ahc") != std::string::npos)
+    throw Error("accumulator append: " + std::to_string(steps.size()) + " window steps do not describe " +
+                std::to_string(later.window_.size()) + " segments");
+  if (!drives_.empty() && !later.drives_.empty() && later.drives_.front().drive_id + drive_offset <= drives_.back().drive_id)
+    throw Error("accumulator append: the later drives are not numbered after this one's");
+  for (DriveSummary d : later.drives_) {
+    d.drive_id += drive_offset;
+    drives_.push_back(d);
+  }
+  steady_.Merge(later.steady_);
+  coverage_.Merge(later.coverage_);
+  gated_s_ += later.gated_s_;
+  counters_.short_drive_samples += later.counters_.short_drive_samples;
+  counters_.short_segment_samples += later.counters_.short_segment_samples;
+  size_t next = 0;
+  for (const char step : steps) {
+    if (step != 'h') {
+      auto seg = std::make_shared<Segment>(*later.window_[next++]);
+      seg->drive_id += drive_offset;
+      window_.push_back(std::move(seg));
+    }
+    RecordStep(step);
+    if (step != 'c') EvictBeyondWindow();
+  }
 }
 
 double Accumulator::window_hours() const {
@@ -348,12 +388,7 @@ void Accumulator::FromJson(const JsonIn& in) {
   distance_base_km_ = 0;
   drive_id_offset_ = next_drive_id;
   // A shorter window_h than the state was learned with: evict as CloseSegment() does.
-  double total = window_hours() * 3600.0;
-  while (!window_.empty() && total - window_.front()->duration_s() >= window_s_) {
-    total -= window_.front()->duration_s();
-    window_.pop_front();
-    ++counters_.evicted_segments;
-  }
+  EvictBeyondWindow();
 }
 
 }  // namespace ndsid::stats

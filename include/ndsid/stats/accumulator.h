@@ -73,10 +73,32 @@ class Accumulator {
   // The window's drive number of a drive number of the gate (they differ after a restore).
   int64_t DriveIdOf(int64_t gate_drive_id) const { return gate_drive_id + drive_id_offset_; }
 
+  // --- Merging the accumulators of consecutive stretches of data (a fleet's per-log reduce,
+  // pipeline/log_reduction.h) ---
+  // From this call on, records how the window grows, one letter a step: 'a' a used drive's
+  // segment closed (appended, then the window evicted beyond window_h), 'h' a held-back segment
+  // closed (the window evicted), 'c' a held-back segment committed (appended, nothing evicted).
+  // While recording nothing is evicted (FromJson() included): the window keeps every segment,
+  // so that Append() can replay the steps on a longer history.
+  void RecordWindowSteps() { record_steps_ = true; }
+  const std::string& window_steps() const { return window_steps_; }
+  // Continues this accumulator with `later`, learned by another accumulator from data that
+  // follow this one's and begin with a new drive: both finished (no drive open), `later`
+  // recorded from its start, `steps` its window_steps(). Its drives are renumbered by
+  // drive_offset; drives, counters, statistics, coverage and gated time are added, and the
+  // window grows step by step, evicting as CloseSegment() does: the window, drives and counters
+  // one accumulator reading both in order would hold (the sums of the statistics and of the
+  // gated time equal up to rounding). Throws Error when a precondition does not hold.
+  void Append(const Accumulator& later, const std::string& steps, int64_t drive_offset);
+
  private:
   void CloseSegment();
   void CloseDrive();
   void CommitPending();
+  void EvictBeyondWindow();  // drops the oldest segments while the rest still span window_h
+  void RecordStep(char step) {
+    if (record_steps_) window_steps_.push_back(step);
+  }
 
   const config::Config& config_;
   int decimation_;
@@ -105,6 +127,8 @@ class Accumulator {
   bool resume_open_ = false;     // restored with a drive open: the gate's next drive may continue it
   double distance_base_km_ = 0;  // a continued drive's distance before the restart
   int64_t skip_through_ns_ = std::numeric_limits<int64_t>::min();
+  bool record_steps_ = false;  // RecordWindowSteps(): keep every segment, record the steps
+  std::string window_steps_;   // the recorded steps ('a', 'h', 'c')
 };
 
 }  // namespace ndsid::stats
