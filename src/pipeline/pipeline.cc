@@ -128,6 +128,15 @@ void Pipeline::RestoreStops(const std::vector<gate::StandstillStop>& stops) {
   DropStopsBeforeWindow();
 }
 
+void Pipeline::RestoreEvidence(std::map<int64_t, adequacy::SpeedSums> wheel_speed, int64_t data_time_ns) {
+  wheel_speed_ = std::move(wheel_speed);
+  const auto& window = accumulator_.window();
+  if (!window.empty()) {
+    while (!wheel_speed_.empty() && wheel_speed_.begin()->first < window.front()->drive_id) wheel_speed_.erase(wheel_speed_.begin());
+  }
+  data_time_ns_ = data_time_ns;
+}
+
 void Pipeline::Finish() {
   time_base_.Finish();
   sync_.Flush(samples_);

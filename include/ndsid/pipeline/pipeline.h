@@ -167,6 +167,12 @@ class Pipeline {
   // Replaces the stops (after the accumulator is restored: stops of drives older than its
   // window are dropped, as while running).
   void RestoreStops(const std::vector<gate::StandstillStop>& stops);
+  // The wheel-speed sums of the window's drives (the wheel_speed plausibility check).
+  const std::map<int64_t, adequacy::SpeedSums>& wheel_speed() const { return wheel_speed_; }
+  // Continues from the evidence of data other pipelines read (a fleet's per-log reductions
+  // merged, pipeline/log_reduction.h): the drives' wheel-speed sums (those of drives older than
+  // the window are dropped, as while reading) and the newest frame time.
+  void RestoreEvidence(std::map<int64_t, adequacy::SpeedSums> wheel_speed, int64_t data_time_ns);
 
  private:
   void ConsumeSamples() noexcept;
@@ -184,7 +190,7 @@ class Pipeline {
   adequacy::Tracker adequacy_;
   std::vector<sync::Sample> samples_;
   std::deque<gate::StandstillStop> stops_;
-  std::map<int64_t, adequacy::SpeedSums> wheel_speed_;  // per drive of the window (plausibility)  // of the window's drives (older ones are dropped)
+  std::map<int64_t, adequacy::SpeedSums> wheel_speed_;  // per drive of the window (plausibility; older ones are dropped)
   std::optional<Estimate> last_;
   std::shared_ptr<const identify::LinearizedWindow> linearized_;  // the incremental prior
   std::vector<Estimate> history_;

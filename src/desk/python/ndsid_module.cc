@@ -24,7 +24,11 @@
 #include "ndsid/dbc/dbc_parser.h"
 #include "ndsid/dbc/decoder.h"
 #include "ndsid/identify/result_codec.h"
+#include "ndsid/model/single_track.h"
 #include "ndsid/pipeline/estimate_codec.h"
+#include "ndsid/pipeline/log_reduction.h"
+#include "fleet_reduce.h"
+#include "replay_document.h"
 #include "replay_runner.h"
 
 namespace py = pybind11;
@@ -51,6 +55,13 @@ std::string LoadConfigJson(const std::string& path) {
   j["report_dir"] = c.report_dir;
   j["state_dir"] = c.state_dir;
   j["window_h"] = c.identification.window_h;
+  j["parameters"] = nlohmann::json::object();
+  for (int i = 0; i < model::kNumParams; ++i) {
+    const config::ParameterSpec& ps = c.identification.params[static_cast<size_t>(i)];
+    j["parameters"][model::kParamNames[i]] = {{"min", ps.lower}, {"max", ps.upper}, {"initial", ps.initial}, {"fixed", ps.fixed}};
+  }
+  j["priors"] = nlohmann::json::object();
+  for (const config::ParameterPrior& pr : c.identification.priors) j["priors"][pr.name] = {{"value", pr.value}, {"sd", pr.sd}};
   j["roles"] = nlohmann::json::object();
   for (int i = 0; i < config::kNumRoles; ++i) {
     const auto& r = c.roles[static_cast<size_t>(i)];
@@ -122,35 +133,36 @@ std::string Replay(const std::string& config_path, const std::vector<std::string
     out = RunReplay(p, c, o);
   }
   // Simulated data: the truth beside the (first) log, as `ndsid replay` reads it.
-  const std::vector<std::string>& used = logs.empty() ? c.source.logs : logs;
-  if (!used.empty()) {
-    const std::filesystem::path truth = std::filesystem::path(used.front()).parent_path() / "truth.yaml";
-    std::error_code ec;
-    if (std::filesystem::exists(truth, ec)) out.truth_eg = config::ReadTruthEg(truth.string());
+  out.truth_eg = TruthBesideLogs(logs.empty() ? c.source.logs : logs);
+  return ReplayDocument(p, out, p.gate().counters()).dump();
+}
+
+// A fleet's per-log task: the logs read to their end by a fresh pipeline, as a CBOR document.
+py::bytes Reduce(const std::string& config_path, const std::vector<std::string>& logs) {
+  const config::Config c = config::LoadConfig(config_path);
+  const dbc::Database db = dbc::ParseDbcFile(c.dbc);
+  std::string cbor;
+  {
+    py::gil_scoped_release unlocked;
+    cbor = ToCbor(pipeline::LogReductionToJson(ReduceLogs(c, db, logs)));
   }
-  nlohmann::json j;
-  j["name"] = out.name;
-  j["estimate"] = out.final_estimate ? pipeline::EstimateToJson(*out.final_estimate) : nlohmann::json();
-  if (out.truth_eg) j["truth_eg_rad_per_mps2"] = *out.truth_eg;
-  j["history"] = nlohmann::json::array();
-  for (const auto& e : out.history) j["history"].push_back(pipeline::EstimateToJson(e));
-  j["drives"] = nlohmann::json::array();
-  for (const auto& d : p.accumulator().drives()) {
-    j["drives"].push_back({{"drive", d.drive_id}, {"start_s", d.start_ns * 1e-9}, {"duration_s", (d.end_ns - d.start_ns) * 1e-9},
-                           {"distance_km", d.distance_km}, {"gated_s", d.gated_s}, {"used", d.used}});
+  return py::bytes(cbor);
+}
+
+// A fleet's per-vehicle task: the reductions of its logs (in log order) merged and identified.
+std::string IdentifyReducedJson(const std::string& config_path, const std::vector<py::bytes>& documents) {
+  const config::Config c = config::LoadConfig(config_path);
+  const dbc::Database db = dbc::ParseDbcFile(c.dbc);
+  std::vector<std::string> raw;
+  for (const py::bytes& d : documents) raw.push_back(std::string(d));
+  py::gil_scoped_release unlocked;
+  std::vector<pipeline::LogReduction> parts;
+  for (size_t i = 0; i < raw.size(); ++i) {
+    const std::string what = "reduction " + std::to_string(i);
+    const nlohmann::json doc = ParseCbor(raw[i], what, CborLimits{32, size_t{1} << 28});
+    parts.push_back(pipeline::LogReductionFromJson(JsonIn(doc, what)));
   }
-  j["gate"] = nlohmann::json::object();
-  const auto& gc = p.gate().counters();
-  for (int i = 0; i < gate::kNumVerdicts; ++i) j["gate"][gate::VerdictName(static_cast<gate::Verdict>(i))] = gc.by_verdict[i];
-  j["gate"]["short_drive"] = p.accumulator().counters().short_drive_samples;
-  j["gate"]["short_segment"] = p.accumulator().counters().short_segment_samples;
-  j["window"] = {{"segments", p.accumulator().window().size()}, {"hours", p.accumulator().window_hours()},
-                 {"gated_hours", p.accumulator().gated_hours()}};
-  j["frames"] = out.source.frames;
-  j["malformed"] = out.source.malformed;
-  j["input_errors"] = out.input_errors;
-  j["wall_s"] = out.wall_s;
-  return j.dump();
+  return IdentifyReduced(c, db, std::move(parts)).dump();
 }
 
 // compare: the model and a baseline fitted on the same window and simulated over it.
@@ -265,6 +277,8 @@ PYBIND11_MODULE(_ndsid, m) {
   m.def("load_config", &ndsid::desk::LoadConfigJson, py::arg("path"));
   m.def("decode", &ndsid::desk::Decode, py::arg("log"), py::arg("dbc"), py::arg("bus") = "");
   m.def("replay", &ndsid::desk::Replay, py::arg("config"), py::arg("logs"), py::arg("final_only"));
+  m.def("reduce", &ndsid::desk::Reduce, py::arg("config"), py::arg("logs"));
+  m.def("identify_reduced", &ndsid::desk::IdentifyReducedJson, py::arg("config"), py::arg("documents"));
   m.def("compare", &ndsid::desk::CompareModels, py::arg("config"), py::arg("logs"), py::arg("effects"), py::arg("baseline"));
   m.def("run_command", &ndsid::desk::RunCommand, py::arg("argv"));
   m.def("set_log_level", [](const std::string& level) { spdlog::set_level(spdlog::level::from_str(level)); });
