@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "ndsid/adequacy/prior_check.h"
 #include "ndsid/common/error.h"
 #include "ndsid/stats/held_out.h"
 
@@ -289,6 +290,13 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
       e.fit.valid = false;
       e.fit.reason = e.plausibility.Reason();
     }
+  }
+  if (!config_.identification.priors.empty()) {  // how far the fit ended from model.priors
+    std::vector<adequacy::FittedParameter> fitted;
+    for (const auto& p : e.fit.params) fitted.push_back({p.name, p.value, p.fixed});
+    for (const auto& p : e.fit.effect_params) fitted.push_back({p.name, p.value, p.fixed});
+    const adequacy::PriorDistance d = adequacy::DistanceFromPriors(fitted, config_.identification.priors);
+    if (!d.z.empty()) e.fit.identifiability.notes.push_back(d.Note());
   }
   if (e.fit.valid) {
     e.adequacy = adequacy_.Update(snap.gated_hours, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2, snap.coverage);
