@@ -9,6 +9,7 @@
     dia = ndsid.diagnose("config/example_vehicle.yaml")                           # the error ladder
     sim = ndsid.simulate("/tmp/sim", hours=0.5, seed=3, effects={"steer_offset_deg": 1.0})
     st = ndsid.study("config/example_vehicle.yaml", hours=[0.1, 0.2])             # sets, summary
+    fl = ndsid.fleet(dir="fleet/", out="out/fleet", workers=2)                     # many vehicles on Dask
 
 Errors of configuration or input raise ndsid.ConfigError (a ValueError) with the CLI's message.
 """
@@ -24,7 +25,7 @@ import pandas as pd
 
 from . import _ndsid
 
-__all__ = ["load_config", "decode", "replay", "compare", "diagnose", "study", "simulate", "run", "ConfigError",
+__all__ = ["load_config", "decode", "replay", "compare", "diagnose", "study", "simulate", "fleet", "run", "ConfigError",
            "Error", "SOURCE_DIR"]
 
 ConfigError = _ndsid.ConfigError
@@ -215,3 +216,19 @@ def simulate(out: str | os.PathLike, *, config: Optional[str | os.PathLike] = No
         truth = yaml.safe_load(f)
     log = os.path.join(os.fspath(out), "drive.log.gz")
     return {"log": log, "truth_path": truth_path, "truth": truth}
+
+
+def fleet(manifest: Optional[str | os.PathLike] = None, *, dir: Optional[str | os.PathLike] = None,
+          out: str | os.PathLike, workers: Optional[int] = None, scheduler: Optional[str] = None, client=None,
+          extras: Sequence[str] = (), progress: bool = False):
+    """`python -m ndsid fleet` in process (docs/fleet.md): every vehicle of a manifest (CSV or
+    YAML) or of a folder (`dir`: FOLDER/<vehicle>/vehicle.yaml + logs/) replayed on Dask — a
+    LocalCluster of `workers` processes, the cluster at `scheduler`, or a distributed.Client
+    given as `client` — each log reduced as its own task, each vehicle merged and identified as
+    one. `extras`: also diagnose, study, compare per vehicle. Returns a FleetResult: `table`
+    (fleet.parquet: one row per vehicle), `drives` (drives.parquet), `failed` (vehicle ids),
+    `priors` (per group), `exit_code` (0 all identified, 1 some failed). Raises
+    ndsid.fleet_manifest.ManifestError (a ValueError) for a bad manifest."""
+    from .fleet_run import run_fleet
+    return run_fleet(manifest, dir, out=out, workers=workers, scheduler=scheduler, client=client, extras=extras,
+                     progress=progress)

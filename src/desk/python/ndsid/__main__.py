@@ -4,8 +4,11 @@
     python -m ndsid decode --dbc car.dbc --log drive.blf --out signals.mf4
     python -m ndsid compare --config car.yaml [--log F ...] [--effects a,b] [--baseline a] --out DIR
     python -m ndsid encode --csv run1.csv [run2.csv ...] --dbc dbc/timeseries.dbc --map map.yaml --out drive.log.gz
+    python -m ndsid fleet (--manifest FILE | --dir FOLDER) --out FOLDER [--workers N | --scheduler ADDR]
+    python -m ndsid fleet prior --fleet OUT/fleet.parquet --group G --config car.yaml --out car_with_prior.yaml
 
-The output's extension chooses the format (.parquet or .mf4). Exit 0 on success, 78 on a
+`fleet` runs many vehicles on Dask (ndsid.fleet_cli, docs/fleet.md). The output's extension
+chooses the format (.parquet or .mf4). Exit 0 on success, 78 on a
 configuration or argument error (as the C++ CLI), 1 on any other error, each with one message.
 """
 from __future__ import annotations
@@ -24,6 +27,10 @@ def _names(text: str | None) -> list[str] | None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "fleet":  # its own options and sub-commands (docs/fleet.md)
+        from ndsid.fleet_cli import main as fleet_main
+        return fleet_main(argv[1:])
     p = argparse.ArgumentParser(prog="python -m ndsid", description="ndsid exports: Parquet and MDF 4")
     sub = p.add_subparsers(dest="command", required=True)
     d = sub.add_parser("decode", help="decoded signals of a CAN log to .parquet or .mf4")
