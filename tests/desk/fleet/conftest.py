@@ -1,7 +1,7 @@
 """A simulated fleet shared by the fleet's tests (ndsid.fleet_sim): 9 vehicles of 3 classes, each
 with its variant (load, tyres, steering ratio), 2 logs of at least 0.15 h of driving (a drive is driven to its end) a month apart; one
 with a short window (segments evicted across its logs), one whose log is cut in the middle of a
-drive into two files (the boundary the merge must read through). Built once per test run."""
+drive into two files (the boundary the merge must read through). Built once for the module."""
 import gzip
 import os
 
@@ -25,7 +25,7 @@ def split_log(log: str, first: str, second: str) -> None:
     os.remove(log)
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def fleet_dir(tmp_path_factory):
     root = str(tmp_path_factory.mktemp("fleet"))
     plan = [("cmax", Variant()), ("cmax", Variant(load_pct=15)), ("cmax", Variant(tyre_pct=-8)),
