@@ -16,6 +16,9 @@
 //                                       u16 bit count, u8 dir, u8 ext data offset, u32 crc,
 //                                       then the data                                 (40 + data)
 //   CAN_FD_ERROR_64 (104)               u8 channel, ...
+//   GLOBAL_MARKER (96)                  3 x u32 type and colours, u8, 3 reserved, 3 x u32 string
+//                                       lengths, 12 reserved, then the strings (beyond the size
+//                                       field when Vector's converter writes it)
 #include "blf_objects.h"
 
 #include <algorithm>
@@ -29,6 +32,7 @@ namespace {
 constexpr uint32_t kExtendedIdBit = 0x80000000u;
 constexpr uint32_t kHeaderV1Bytes = 32, kHeaderV2Bytes = 40;
 constexpr uint32_t kTimeTenMics = 1;
+constexpr uint32_t kGlobalMarker = 96, kGlobalMarkerFixed = 40;
 constexpr int64_t kTenMicsNs = 10'000;
 
 uint16_t U16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | p[1] << 8); }
@@ -135,6 +139,16 @@ const char* ErrorObject(uint32_t type, const uint8_t* body, uint32_t body_size, 
 }
 
 }  // namespace
+
+uint64_t BlfObjectExtent(const uint8_t* obj, uint32_t size, size_t available) noexcept {
+  if (U32(obj + 12) != kGlobalMarker) return size;
+  const uint32_t header_size = U16(obj + 4);
+  if (header_size < kBlfBaseHeaderBytes || size < header_size + kGlobalMarkerFixed) return size;
+  if (available < header_size + kGlobalMarkerFixed) return 0;
+  const uint8_t* body = obj + header_size;
+  const uint64_t strings = uint64_t{U32(body + 16)} + U32(body + 20) + U32(body + 24);
+  return std::max<uint64_t>(size, header_size + kGlobalMarkerFixed + strings);
+}
 
 bool IsBlfCanObject(uint32_t type) noexcept {
   return type == kBlfCanMessage || type == kBlfCanMessage2 || type == kBlfCanFdMessage || type == kBlfCanFdMessage64 ||

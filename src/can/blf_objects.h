@@ -18,6 +18,12 @@ inline constexpr uint32_t kBlfCanMessage = 1, kBlfCanError = 2, kBlfLogContainer
 // u32 object size (header included, padding excluded), u32 object type.
 inline constexpr uint32_t kBlfBaseHeaderBytes = 16;
 
+// The bytes the object at obj (header complete, `available` bytes from obj on) takes in the
+// stream: its size, except for GLOBAL_MARKER (96), whose size as Vector's tools write it
+// leaves out its three strings (vector_blf reads them by their lengths). 0 when more bytes
+// are needed to tell.
+uint64_t BlfObjectExtent(const uint8_t* obj, uint32_t size, size_t available) noexcept;
+
 // True for the object types DecodeBlfObject reads as frames (CAN data, remote and error).
 bool IsBlfCanObject(uint32_t type) noexcept;
 

@@ -111,7 +111,7 @@ class BlfReader final : public FrameLogBase {
   void DeferStop(uint64_t at, const char* why) noexcept;
   // Rejects the object at stream index `at` with its place.
   void RejectObject(size_t at, const char* reason) noexcept;
-  bool FindObject(size_t& skip) noexcept;
+  bool FindObject(size_t& skip, uint64_t& extent) noexcept;
 
   gzFile file_ = nullptr;
   uint64_t offset_ = 0;              // bytes consumed from the file
@@ -397,8 +397,9 @@ void BlfReader::EndContainer() noexcept {
   container_.input.shrink_to_fit();
 }
 
-// Finds a complete object at stream_[pos_ + skip]; false when more data is needed.
-bool BlfReader::FindObject(size_t& skip) noexcept {
+// Finds a complete object at stream_[pos_ + skip], `extent` bytes long; false when more data
+// is needed.
+bool BlfReader::FindObject(size_t& skip, uint64_t& extent) noexcept {
   for (;;) {
     // Padding (at most 7 bytes) before the next "LOBJ".
     const size_t avail = stream_.size() - pos_;
@@ -424,18 +425,25 @@ bool BlfReader::FindObject(size_t& skip) noexcept {
       pos_ += skip + 4;
       continue;
     }
-    return avail - skip >= size;
+    extent = BlfObjectExtent(obj, size, avail - skip);
+    if (extent > kMaxObjectBytes) {
+      RejectObject(pos_ + skip, "object size out of range; resynchronising");
+      pos_ += skip + 4;
+      continue;
+    }
+    return extent != 0 && avail - skip >= extent;
   }
 }
 
 bool BlfReader::Next(CanFrame& frame) noexcept {
   for (;;) {
     size_t skip = 0;
-    if (FindObject(skip)) {
+    uint64_t extent = 0;
+    if (FindObject(skip, extent)) {
       const size_t at = pos_ + skip;
       const uint8_t* obj = stream_.data() + at;
       const uint32_t size = U32(obj + 8);
-      pos_ = at + size;
+      pos_ = at + static_cast<size_t>(extent);
       frame = CanFrame{};
       const BlfDecoded d = DecodeBlfObject(obj, size, start_ns_, frame);
       if (d.verdict == BlfVerdict::kNotFrame) {

@@ -270,6 +270,7 @@ bool Mf4DataStream::Refill() noexcept {
 }
 
 bool Mf4DataStream::Read(uint8_t* out, size_t n) noexcept {
+  if (n == 0) return true;  // (an empty value: no copy from or to a null pointer)
   while (avail() < n) {
     if (!Refill()) return false;
   }

@@ -210,7 +210,7 @@ const char* Mf4Reader::DecodeData(Cursor& c, size_t gi, int len, QueuedFrame& q)
     }
   }
   if (len > static_cast<int>(value.bytes.size())) return "data length above the DataBytes value's size";
-  std::memcpy(f.data.data(), value.bytes.data(), static_cast<size_t>(len));
+  if (len > 0) std::memcpy(f.data.data(), value.bytes.data(), static_cast<size_t>(len));
   return nullptr;
 }
 
@@ -281,7 +281,7 @@ RecordOutcome Mf4Reader::ReadValue(Cursor& c, size_t v) noexcept {
       if (len > static_cast<int>(value.bytes.size())) {
         q.frame.len = 0;
         q.vlsd = -2;  // rejected when it reaches the front
-      } else {
+      } else if (len > 0) {
         std::memcpy(q.frame.data.data(), value.bytes.data(), static_cast<size_t>(len));
       }
       q.ready = true;

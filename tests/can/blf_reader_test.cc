@@ -2,7 +2,7 @@
 // versions 1 and 2, time stamps in 10 us and in ns (also beyond the 5 days that once made every
 // ns object "out of range"), the file's start time, CAN_ERROR / CAN_ERROR_EXT / CAN_FD_ERROR_64,
 // channel numbers beyond 256, objects split over several containers, one container far larger
-// than the reader's buffers; and the errors: a record that cannot be placed in time (with its
+// than the reader's buffers, a GLOBAL_MARKER longer than its size field; and the errors: a record that cannot be placed in time (with its
 // place), a file of mostly such records (an error, not "0 frames"), a CAN object outside a
 // container (python-can and vector_blf read none).
 #include <gtest/gtest.h>
@@ -138,6 +138,23 @@ TEST(BlfReader, AnObjectSplitOverManyContainersIsJoined) {
   EXPECT_EQ(log->bus_names()[f[0].bus], "can1");
   EXPECT_EQ(f[1].id, 0x5u);
   EXPECT_TRUE(log->io_error().empty()) << log->io_error();
+}
+
+// vector_blf's events_from_converter/test_GlobalMarker.blf (Vector CANape): a GLOBAL_MARKER
+// whose size field leaves out its three strings. Catches: the strings taken for a damaged
+// object stream (malformed records, a file of markers made an error).
+TEST(BlfReader, GlobalMarkerStringsBeyondItsSizeField) {
+  TempDir dir;
+  const std::string fixed = std::string(16, '\0') + Le<uint32_t>(4) + Le<uint32_t>(4) + Le<uint32_t>(8) + std::string(12, '\0');
+  std::string marker = BlfObject(96, 5, fixed);  // size 72: without the strings
+  marker += std::string("grp\0mrk\0descript", 16);
+  const std::string inner = marker + BlfObject(kCanMessage, 9, BlfCanBody(1, 0, 1, 0x7, "M"));
+  std::unique_ptr<FrameLog> log;
+  const auto f = ReadBlf(BlfFile(BlfContainer(inner)), log, dir);
+  ASSERT_EQ(f.size(), 1u) << log->io_error();
+  EXPECT_EQ(f[0].id, 0x7u);
+  EXPECT_EQ(log->counters().malformed, 0u);
+  EXPECT_EQ(log->skipped_records(), 1u);
 }
 
 uint64_t ResidentBytes() {
