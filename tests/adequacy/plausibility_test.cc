@@ -193,7 +193,7 @@ namespace {
 // Race-track-like driving at 30 m/s: turns of +-6 m/s^2 (cut by the gate's linear range,
 // |a_y| < 4) and short holds at +-3 m/s^2, linked by quick transients in which a_y leads v r by
 // 0.15 s (a_y = v (r + beta'): beta' there). The gate keeps mostly the transients, as on a race
-// car's track session: all kept samples give a gain of about 0.68. Split into segments where
+// car's track outing: all kept samples give a gain of about 0.68. Split into segments where
 // |a_y| >= 4 cut them, as the gate does.
 std::vector<stats::Segment> TrackDrive(uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -236,7 +236,7 @@ std::vector<stats::Segment> TrackDrive(uint64_t seed) {
 }
 
 // Catches: the kinematics check failing good data whose transients dominate (beta' makes a_y lead
-// v r there), as it did on a race car's track session.
+// v r there), as it did on a race car's track outing.
 TEST(Plausibility, KinematicsJudgesQuasiSteadyTurningOnly) {
   for (uint64_t seed : {1, 2, 3}) {
     const std::vector<stats::Segment> segs = TrackDrive(seed);
