@@ -51,6 +51,10 @@ HalfEstimate EstimateHalf(const HalfMoments& own, const HalfMoments& other, cons
   for (int i = 0; i < model::kNumParams; ++i) base[i] = at[static_cast<size_t>(i)] * c.scale[static_cast<size_t>(i)];
   h.eg_rad_per_mps2 = model::SelfSteerGradient(model::Params<double>::FromArray(base), c.wheelbase_m);
   const Eigen::VectorXd g = Part(EgGradientTheta(at, c.scale, c.wheelbase_m, fixed), c.free);
+  if (!(g.squaredNorm() > 0)) {
+    h.reason = "EG depends on no parameter free in this half (they are fixed or on their bounds)";
+    return h;
+  }
   const Eigen::VectorXd hinv_g = ldlt.solve(g);
   double var = c.noise_level * g.dot(hinv_g);
   if (own.chunks >= 10) {

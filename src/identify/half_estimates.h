@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "ndsid/identify/half_estimate.h"
+
 namespace ndsid::identify {
 
 // One half's sums over its chunks, at the whole window's estimate theta (theta space, every
@@ -34,14 +36,6 @@ struct HalfMoments {
     meat += chunk_score * chunk_score.transpose();
     ++chunks;
   }
-};
-
-struct HalfEstimate {
-  bool valid = false;
-  std::string reason;
-  double eg_rad_per_mps2 = 0, eg_se_rad_per_mps2 = 0;
-  int drives = 0;
-  size_t chunks = 0;
 };
 
 // What the halves need besides their moments.
