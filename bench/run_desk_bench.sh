@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The desk's two long commands on 2 h of simulated driving (issue target: `diagnose` < 30 s,
+# The desk's two long commands on 2 h of simulated driving (targets: `diagnose` < 30 s,
 # `compare` < 15 s): `ndsid compare` (base model + road_bank against the measurements, the
 # binned where-it-fails tables, the report) and `ndsid diagnose` (step 0, the score tests, the
 # error ladder), with `ndsid replay --final-only` (the same log through the pipeline with one

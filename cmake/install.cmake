@@ -51,6 +51,6 @@ foreach(doc install.md daemon.md monitoring.md configuration.md can-input.md dbc
     install(FILES "${CMAKE_SOURCE_DIR}/docs/${doc}" DESTINATION "${CMAKE_INSTALL_DOCDIR}")
   endif()
 endforeach()
-install(FILES "${CMAKE_SOURCE_DIR}/README.md" DESTINATION "${CMAKE_INSTALL_DOCDIR}")
+install(FILES "${CMAKE_SOURCE_DIR}/README.md" "${CMAKE_SOURCE_DIR}/CHANGELOG.md" DESTINATION "${CMAKE_INSTALL_DOCDIR}")
 
 include(cmake/package.cmake)

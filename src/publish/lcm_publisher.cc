@@ -57,6 +57,13 @@ ndsid::estimate_t ToLcm(const EstimateMessage& m) {
   o.adequacy_explanation = m.adequacy_explanation;
   o.num_effects = static_cast<int32_t>(m.effects.size());
   o.effects = m.effects;
+  o.num_checks = static_cast<int32_t>(m.checks.size());
+  for (const EstimateMessage::CheckValue& c : m.checks) {
+    o.check_name.push_back(c.name);
+    o.check_verdict.push_back(c.verdict);
+    o.check_value.push_back(c.value);
+    o.check_message.push_back(c.message);
+  }
   return o;
 }
 
@@ -201,6 +208,11 @@ class EstimateLayoutCheck {
     String();  // adequacy_explanation
     const int64_t effects = Count();
     for (int64_t i = 0; ok_ && i < effects; ++i) String();  // effects
+    const int64_t checks = Count();
+    for (int64_t i = 0; ok_ && i < checks; ++i) String();  // check_name
+    for (int64_t i = 0; ok_ && i < checks; ++i) String();  // check_verdict
+    Skip(checks * 8);                                      // check_value
+    for (int64_t i = 0; ok_ && i < checks; ++i) String();  // check_message
     return ok_;
   }
 
@@ -270,6 +282,8 @@ EstimateMessage DecodeEstimate(const std::string& bytes) {
   m.adequacy_hours_under_tolerance = o.adequacy_hours_under_tolerance;
   m.adequacy_explanation = o.adequacy_explanation;
   m.effects = o.effects;
+  for (int i = 0; i < o.num_checks; ++i)
+    m.checks.push_back({o.check_name[i], o.check_verdict[i], o.check_value[i], o.check_message[i]});
   return m;
 }
 

@@ -71,6 +71,8 @@ publish::EstimateMessage MakeEstimateMessage(const std::optional<pipeline::Estim
   m.steady_state_eg_rad_per_mps2 = e->steady_state.eg_rad_per_mps2;
   m.steady_state_eg_sigma_rad_per_mps2 = e->steady_state.eg_se;
   m.steady_state_steer_ratio = e->steady_state.steer_ratio;
+  for (const adequacy::Check& c : e->plausibility.checks)
+    m.checks.push_back({c.name, adequacy::VerdictName(c.verdict), c.value, c.message});
   return m;
 }
 

@@ -23,7 +23,11 @@ SignalSync::SignalSync(const config::Config& config)
     if (!config.roles[i]) continue;
     roles_[i].timeout_ns = static_cast<int64_t>(std::llround(config.roles[i]->timeout_s * 1e9));
     roles_[i].shift_ns = static_cast<int64_t>(std::llround(config.roles[i]->latency_s * 1e9));
-    max_shift_ns = std::max(max_shift_ns, roles_[i].shift_ns);
+    if (config.roles[i]->lowpass_hz > 0 && !config::RoleIsFlag(static_cast<Role>(i))) {
+      roles_[i].filter = BesselLowPass(config.roles[i]->lowpass_hz, config.sync.rate_hz);
+      roles_[i].lead_ns = static_cast<int64_t>(std::llround(roles_[i].filter.delay_s() * 1e9));
+    }
+    max_shift_ns = std::max(max_shift_ns, roles_[i].shift_ns + roles_[i].lead_ns);
   }
   // A role read at t - latency arrives that much later: wait for it before emitting.
   latency_ns_ += max_shift_ns;
@@ -100,17 +104,22 @@ void SignalSync::EmitUntil(int64_t t_end, std::vector<Sample>& out) noexcept {
     Sample s;
     s.t_ns = t;
     s.gap_before = pending_gap_;
+    if (pending_gap_)
+      for (Channel& c : roles_) c.filter.Reset();
     pending_gap_ = false;
     double v = 0;
     for (int i = 0; i < config::kNumRoles; ++i) {
       const Role role = static_cast<Role>(i);
       const auto& spec = config_.roles[i];
       if (!spec) continue;
-      const bool fresh = config::RoleIsFlag(role) ? Hold(roles_[i], t, v) : Interpolate(roles_[i], t, v);
+      Channel& channel = roles_[i];
+      const bool fresh = config::RoleIsFlag(role) ? Hold(channel, t, v) : Interpolate(channel, t + channel.lead_ns, v);
       if (!fresh) {
+        channel.filter.Reset();
         s.stale_roles |= static_cast<uint16_t>(1u << i);
         continue;
       }
+      v = channel.filter.Step(v);
       switch (role) {
         case Role::kSteeringWheelAngle: s.steer_rad = v; break;
         case Role::kSpeed: s.speed_mps = v; break;

@@ -1,5 +1,5 @@
-// Every number of the vehicle YAML is range-checked with a located error (issue 15,
-// docs/reliability.md): `lcm.status_rate_hz: 1e-300` and `sync.latency_s: 1e15` overflowed a
+// Every number of the vehicle YAML is range-checked with a located error
+// (docs/reliability.md): `lcm.status_rate_hz: 1e-300` and `sync.latency_s: 1e15` overflowed a
 // conversion to a period later; a YAML complex key escaped as a yaml-cpp exception (exit 1
 // instead of 78).
 #include <gtest/gtest.h>

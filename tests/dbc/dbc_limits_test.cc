@@ -1,4 +1,4 @@
-// Limits and undefined behaviour found by fuzzing and by hand (issue 15, docs/reliability.md):
+// Limits and undefined behaviour found by fuzzing and by hand (docs/reliability.md):
 // integers at the ends of int64, numbers that do not fit, and the overlap check on messages
 // with tens of thousands of signals. Each test names what it would catch.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// The ladder's EG-relevant rule (LadderOptions::eg_relevant_*, issue 11 items 1 and 5) on
+// The ladder's EG-relevant rule (LadderOptions::eg_relevant_*) on
 // synthetic two-output segments: a body roll the tracked bank absorbs is added although no
 // held-out RMSE falls by the ladder's 3 %, because both fall and EG moves far beyond its sigma;
 // a candidate that moves EG but is not added leaves EG reported unsettled.

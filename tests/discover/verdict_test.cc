@@ -1,4 +1,4 @@
-// After the ladder: each output's held-out residual against its noise floor (issue 11 item 4).
+// After the ladder: each output's held-out residual against its noise floor.
 // Synthetic segments with white noise (tests/identify/synthetic_segments.h), so the true model's
 // RMSE equals the noise and the floor finds it; a hidden effect the ladder may not add leaves its
 // output clearly above the floor.

@@ -217,7 +217,7 @@ TEST(Incremental, ExactUpdateIsTheWholeWindowFit) {
   }
 }
 
-// The target (label long, about 10 min): 10 h of simulated driving, the incremental EG
+// The long target (label long, about 10 min): 10 h of simulated driving, the incremental EG
 // within 0.2 sigma of the full-window fit at every update, and the incremental path simulating
 // well under the full fits' chunks over the run.
 TEST(IncrementalLong, TenHoursFollowTheFullWindowFitAtEveryUpdate) {

@@ -18,7 +18,7 @@ identify::Identifier TwoOutputIdentifier(const SimulatedRun& run, const model::M
 }
 
 // Catches: a biased EG or a fit that stops short of the noise floor, in the default suite:
-// 2 h of clean driving with random road crossfall (the minimum), model base + road_bank.
+// 2 h of clean driving with random road crossfall (the minimum data set), model base + road_bank.
 // Measured: +0.05 % mean over 7 seeds (sigma ~0.11 %), see docs/accuracy.md. Bound: 1 %. The
 // noise floor is the true model's RMSE on the same held-out drives.
 TEST(Accuracy, CleanTwoHoursEgWithinOnePercentAndRmseAtNoiseFloor) {
@@ -196,7 +196,7 @@ TEST(AccuracyLong, TenHoursCleanEgWithinOnePercent) {
 }
 
 // Catches: a dishonest standard error, and a shared bias. Across 20 independent 1 h data sets
-// the 95 % interval must cover the truth at least 18 times (the 90 %), the reported
+// the 95 % interval must cover the truth at least 18 times (90 %), the reported
 // sigma must match the spread of the estimates (sd / mean sigma in [0.7, 1.4]) and the mean
 // error stays below 0.5 %.
 TEST(AccuracyLong, StandardErrorHonestAcrossTwentySeeds) {

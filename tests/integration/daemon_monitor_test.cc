@@ -1,5 +1,5 @@
 // The live monitor (ndsidd's monitor channel) predicts with the current model, effects included
-// (issue 11 item 4: it used the base model and ignored the learned effects). Synthetic segments
+// (not the base model alone, which would ignore the learned effects). Synthetic segments
 // whose truth has a steering offset: the monitor with the full model follows the measured a_y to
 // the noise; with the base parameters alone it is off by the offset's effect.
 #include <gtest/gtest.h>

@@ -290,7 +290,7 @@ def MonitorIsRateLimitedInWallClockTime():
 
 def ImplausibleEstimateIsPublishedNotValid():
     """A configuration with the a_y sign flipped: the daemon still fits, but publishes the
-    estimate with valid = false and the plausibility check's words as reason (issue 12 item 3)."""
+    estimate with valid = false and the plausibility check's words as reason."""
     lcm, ndsid = lcm_modules()
     case = Case("implausible", drives=2, drive_s=300)
     try:
@@ -427,7 +427,7 @@ def SigkillMidReplayResumesToSameEg():
 
 
 def FiftySigkillsLoseNothingAndKeepEg():
-    """Issue 15 item 4: SIGKILL at 50 random moments of a replay (persist every 0.2 s), each
+    """SIGKILL at 50 random moments of a replay (persist every 0.2 s), each
     followed by a restart that resumes from the learned state; then the replay runs to its end.
     The drive in progress is part of the persisted state (continued after the restart with its
     number, distance, held-back data and open segment), and the log is re-read from a few
@@ -488,7 +488,7 @@ def FiftySigkillsLoseNothingAndKeepEg():
 
 
 def DiskFullAtPersistKeepsThePreviousStateAndRetries():
-    """Issue 15 item 4: the state directory fills up while ndsidd runs. Every persist then
+    """The state directory fills up while ndsidd runs. Every persist then
     fails (ENOSPC, logged); the previous state stays whole and loadable, no temporary file is
     left; once space is free again the next periodic persist writes the newer state."""
     if os.geteuid() != 0:
@@ -548,7 +548,7 @@ def DiskFullAtPersistKeepsThePreviousStateAndRetries():
 
 
 def SlowFsyncDoesNotStallReading():
-    """Issue 15 item 4: a slow disk (every fsync 1 s, through an LD_PRELOAD shim) must not stall
+    """A slow disk (every fsync 1 s, through an LD_PRELOAD shim) must not stall
     the thread that reads the bus: the state is written by a helper thread, and a persist that
     is due while the previous one is still writing is skipped, not waited for. Measured as a
     ratio against the same paced replay on a normal disk, side by side: a reading thread that

@@ -1,4 +1,4 @@
-// The model-improvement loop proven on simulated driving with hidden effects (issue: compare
+// The model-improvement loop proven on simulated driving with hidden effects (compare
 // -> where it fails -> which effect is missing -> add it -> the error falls). Through the whole
 // pipeline: simulator -> CAN log -> decode -> gate -> window -> fit -> diagnosis -> ladder.
 #include <gtest/gtest.h>
@@ -196,10 +196,10 @@ TEST(HiddenEffectLong, AccelerometerBiasFoundWithStandstillEvidence) {
   RunCase({"bias_standstill_2", {"accel_bias_mps2=0.09"}, {"accel_bias"}, {}, "accel_bias_mps2", 0.09, 0.02}, 55, 1.5);
 }
 
-// Two outputs (identification.outputs [a_y, yaw_rate]), issue "two outputs and real sensors"
-// item 5. A gyro offset: with road_bank in the start model the bank observer makes the model's
-// yaw rate follow the measured one, so the offset leaves a bank of about r0/G and in a_y a
-// residual of -l r0 / (v EG), which a steering offset explains in part. The stops' mean yaw
+// Two outputs (identification.outputs [a_y, yaw_rate]) and real sensors' errors. A gyro offset:
+// with road_bank in the start model the bank observer makes the model's yaw rate follow the
+// measured one, so the offset leaves a bank of about r0/G and in a_y a residual of
+// -l r0 / (v EG), which a steering offset explains in part. The stops' mean yaw
 // rate is the offset itself: with that evidence gyro_offset is ranked first and added, and the
 // observer then reads r_meas - r0.
 TEST(HiddenEffectLong, GyroOffsetFoundWithTwoOutputs) {
@@ -244,7 +244,7 @@ TEST(HiddenEffectLong, GyroLatencyFoundByTimeAlignmentWithTwoOutputs) {
   HiddenCase c{"gyro_lat", {"gyro_delay_ms=60"}, {}, {}, "", 0, 0};
   c.two_outputs = true;
   c.yaw_skew_s = 0.060;
-  c.speed_unskewed_within_s = 0.012;  // the build before applied -13.1 ms
+  c.speed_unskewed_within_s = 0.012;  // a held yaw-rate profile would apply -13.1 ms
   RunCase(c, 68, 1.5);
 }
 
@@ -293,7 +293,7 @@ TEST(HiddenEffectLong, GyroLatencyOfOtherSizesAndWithCompanionsWithTwoOutputs) {
 // -c r, so speed_offset is ranked first and added, the offset recovered within 0.1 m/s and both
 // outputs at their floors. EG only within 2.5 % (measured +1.81 %, offset -0.483 +- 0.010 of
 // -0.556 m/s): with speed_offset in the model EG moves with the offset's structural error
-// (docs/two-outputs.md, "The speed signal's errors"); the issue's 1 % is not met for this effect.
+// (docs/two-outputs.md, "The speed signal's errors"); 1 % is not met for this effect.
 TEST(HiddenEffectLong, SpeedOffsetFoundWithTwoOutputs) {
   HiddenCase c{"speed_off", {"speed_offset_kph=-2"}, {"speed_offset"}, {}, "speed_offset_mps", -2 / 3.6, 0.1};
   c.two_outputs = true;

@@ -1,4 +1,4 @@
-// The real RAV4 segment (issue 11 item 6) through the whole pipeline with both outputs and
+// The real RAV4 segment through the whole pipeline with both outputs and
 // gyro_offset: the gyro offset it finds, with its standard error, against the mean yaw rate while
 // driving straight. Skips with a message without the real-data folder.
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Soak test of ndsidd (issue 15 item 7, ctest label `long`): HOURS of simulated driving
+"""Soak test of ndsidd (ctest label `long`): HOURS of simulated driving
 (default 24) replayed at 300x recorded speed (as fast as it goes takes ~10 s for 24 h, too
 short for restarts; NDSID_SOAK_SPEED sets it), with a SIGHUP every 5 s and a SIGKILL + restart every
 15 s of wall time, persisting every 2 s. Samples the daemon's resident memory and open file

@@ -1,4 +1,4 @@
-// Clocks that jump (issue 15 item 3, docs/reliability.md): the bundled clean drives through the
+// Clocks that jump (docs/reliability.md): the bundled clean drives through the
 // pipeline as recorded, with a frame stamped 10 years ahead, and with the clock stepped back by
 // an hour in the middle. Nothing after a fault is lost, the future never becomes the data time,
 // and EG agrees with the clean run.

@@ -1,4 +1,4 @@
-// Limits of formula expressions (issue 15, docs/reliability.md): ~13 000 nested parentheses
+// Limits of formula expressions (docs/reliability.md): ~13 000 nested parentheses
 // crashed `ndsidd --check-config` by stack overflow, an 18 000-term sum passed it and crashed
 // the daemon in evaluation. Both are located ConfigErrors now, at parse time.
 #include <gtest/gtest.h>

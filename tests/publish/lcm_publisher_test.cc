@@ -48,6 +48,8 @@ EstimateMessage SampleEstimate() {
   m.adequacy_hours_under_tolerance = 0.5;
   m.adequacy_explanation = "EG moved 2.00 %";
   m.effects = {"steer_offset", "tyre_relaxation"};
+  m.checks = {{"converged", "passed", 12, "solver ended CONVERGENCE after 12 iterations"},
+              {"halves", "failed", -3.4, "EG of two halves ... -3.40 combined sigma"}};
   return m;
 }
 
@@ -76,6 +78,13 @@ TEST(LcmPublisher, EstimateEncodingCarriesEveryField) {
   EXPECT_EQ(d.adequacy_kl_growth, 0.03);
   EXPECT_EQ(d.adequacy_explanation, m.adequacy_explanation);
   EXPECT_EQ(d.effects, m.effects);
+  ASSERT_EQ(d.checks.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(d.checks[i].name, m.checks[i].name);
+    EXPECT_EQ(d.checks[i].verdict, m.checks[i].verdict);
+    EXPECT_EQ(d.checks[i].value, m.checks[i].value);
+    EXPECT_EQ(d.checks[i].message, m.checks[i].message);
+  }
 }
 
 TEST(LcmPublisher, WritesDecodableMessagesOnConfiguredChannels) {
@@ -151,10 +160,12 @@ TEST(LcmPublisher, DecodeEstimateRefusesImplausibleCountsAndLengths) {
     PutInt32(b, num_params_at, n);
     EXPECT_THROW(DecodeEstimate(b), Error) << n;
   }
-  const size_t last_effect_at = good.size() - 4 - sizeof("tyre_relaxation");  // the last string
+  const size_t last_effect_at = good.find("tyre_relaxation") - 4;
   ASSERT_EQ(good.substr(last_effect_at, 4), std::string("\0\0\0\x10", 4));
+  const size_t last_message_at = good.size() - 4 - sizeof("EG of two halves ... -3.40 combined sigma");  // the last string
+  ASSERT_EQ(good.substr(last_message_at, 4), std::string("\0\0\0\x2a", 4));
   for (int32_t len : {0, -7}) {
-    for (size_t at : {vehicle_at, last_effect_at}) {  // found by the fuzzer: the effects' strings
+    for (size_t at : {vehicle_at, last_effect_at, last_message_at}) {  // found by the fuzzer: the effects' strings
       std::string b = good;
       PutInt32(b, at, len);
       EXPECT_THROW(DecodeEstimate(b), Error) << len << " at " << at;

@@ -261,7 +261,7 @@ TEST(AccumulatorState, CorruptedValuesAreRejected) {
   EXPECT_TRUE(target.window().empty());
 }
 
-// The drive in progress across a restart (issue 15 item 4). `restart_at` samples into the second
+// The drive in progress across a restart. `restart_at` samples into the second
 // drive the state is serialized and restored into a fresh accumulator, and the data go on from a
 // gate that starts again (its drive 0, distance from 0), `gap_s` later.
 struct Fed {

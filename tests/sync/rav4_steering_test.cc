@@ -99,7 +99,7 @@ TEST(Rav4Steering, FineAngleFromTheRoleExpression) {
   EXPECT_GT(fine.distinct_steps.size(), 2 * coarse.distinct_steps.size())
       << fine.distinct_steps.size() << " vs " << coarse.distinct_steps.size();
   EXPECT_GT(fine.corr, coarse.corr + 0.01) << fine.corr << " vs " << coarse.corr;
-  // Issue 11 item 6: with the configured signs, a_y follows v * r (gain ~1: a_y positive to the
+  // With the configured signs, a_y follows v * r (gain ~1: a_y positive to the
   // left after `sign: -1` on ACCEL_Y), and the yaw rate has an offset while driving straight.
   std::printf("RAV4 kinematics: a_y = %.3f * v*(r - r_straight) (1 s means, correlation %.3f); mean yaw rate driving straight %.3f deg/s over %zu samples\n",
               fine.kin_gain, fine.kin_corr, fine.mean_straight_yaw * 180 / M_PI, fine.straight);

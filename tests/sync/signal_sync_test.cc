@@ -153,3 +153,61 @@ TEST(SignalSync, ConfiguredLatencyReadsTheRoleEarlier) {
 
 }  // namespace
 }  // namespace ndsid::sync
+
+namespace ndsid::sync {
+namespace {
+
+// Catches: a filter whose delay is not the one the sync stage takes back (a fake time skew of
+// the conditioned role against the others), or one that does not remove vibration.
+TEST(BesselLowPass, UnitDcGainCutoffAtThreeDecibelsAndFlatDelay) {
+  const BesselLowPass f(5.0, 100.0);
+  EXPECT_NEAR(f.Gain(0.0), 1.0, 1e-12);
+  EXPECT_NEAR(f.Gain(5.0), std::sqrt(0.5), 1e-6);
+  EXPECT_LT(f.Gain(25.0), 0.12);
+  EXPECT_NEAR(f.delay_s(), 1.3616541287161306 / (2 * M_PI * 5.0), 0.004);  // the analogue's 1/w0
+  // The delay of a 1 Hz sine through the filter (its zero crossings) is the DC delay within 1 ms.
+  BesselLowPass g(5.0, 100.0);
+  double last_y = 0, crossing = -1;
+  for (int k = 0; k < 1000; ++k) {
+    const double t = k / 100.0;
+    const double y = g.Step(std::sin(2 * M_PI * 1.0 * t));
+    if (k > 200 && last_y < 0 && y >= 0 && crossing < 0) crossing = (k - 1 + (-last_y) / (y - last_y)) / 100.0;
+    last_y = y;
+  }
+  ASSERT_GT(crossing, 0);
+  const double delay = crossing - std::round(crossing);  // the sine crosses upward at whole seconds
+  EXPECT_NEAR(delay, f.delay_s(), 0.001);
+  EXPECT_THROW(BesselLowPass(30.0, 100.0), Error);
+  EXPECT_THROW(BesselLowPass(0.0, 100.0), Error);
+}
+
+TEST(SignalSync, LowPassedRoleStaysAlignedAndLosesItsVibration) {
+  auto cfg = TestConfig();
+  cfg.roles[static_cast<int>(Role::kLateralAcceleration)]->lowpass_hz = 5.0;
+  SignalSync s(cfg);
+  std::vector<Sample> out;
+  auto truth = [](double t_s) { return 2.0 * std::sin(2 * M_PI * 0.4 * t_s); };
+  for (int64_t t = 0; t <= 20000; ++t) {  // 1 ms steps, every role at 100 Hz
+    s.Advance(t * kMs, out);
+    if (t % 10 != 0) continue;
+    const double ts = t * 1e-3;
+    s.PushRole(Role::kSteeringWheelAngle, t * kMs, 0.1);
+    s.PushRole(Role::kSpeed, t * kMs, 10);
+    s.PushRole(Role::kLateralAcceleration, t * kMs, truth(ts) + 3.0 * std::sin(2 * M_PI * 23.0 * ts + 0.3));
+    s.PushValidity(0, t * kMs, 1.0);
+  }
+  double worst = 0;
+  int n = 0;
+  for (const Sample& x : out) {
+    if (x.t_ns < 2000 * kMs || !x.valid) continue;
+    worst = std::max(worst, std::abs(x.lat_accel_mps2 - truth(x.t_ns * 1e-9)));
+    ++n;
+  }
+  ASSERT_GT(n, 1500);
+  // Vibration of 3 m/s^2 at 23 Hz down to < 0.2; the 0.4 Hz signal's residual phase and gain
+  // error is < 1 %: about 0.02 at 2 m/s^2.
+  EXPECT_LT(worst, 0.2);
+}
+
+}  // namespace
+}  // namespace ndsid::sync

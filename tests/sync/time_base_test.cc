@@ -31,7 +31,7 @@ struct Stream {
   }
 };
 
-// Catches: one frame stamped 10 years ahead becoming the data time (the case), or a
+// Catches: one frame stamped 10 years ahead becoming the data time, or a
 // spike back dropping the frames after it.
 TEST(TimeBase, SpikesAreDroppedAndCounted) {
   for (int64_t spike : {10 * kYear, -3600'000 * kMs, 5'000 * kMs}) {
@@ -57,8 +57,8 @@ TEST(TimeBase, SpikesAreDroppedAndCounted) {
   EXPECT_EQ(r.out.size(), 100u);
 }
 
-// Catches: a clock stepped back by an hour silently discarding everything after the step (the
-// issue's "1 drives, 0.000 gated h"); the new base must continue after the old one, past a drive gap.
+// Catches: a clock stepped back by an hour silently discarding everything after the step (a
+// replay reading "1 drives, 0.000 gated h"); the new base must continue after the old one, past a drive gap.
 TEST(TimeBase, StepBackStartsANewTimeBaseAndLosesNothing) {
   Stream r;
   const int64_t t0 = 7200'000 * kMs;

@@ -53,6 +53,9 @@ struct RoleSignal {
   // Time alignment (physics.md §5 step 0): the value is stamped this long after the instant it
   // describes, relative to the lateral acceleration; the sync stage reads it at t - latency_s.
   double latency_s = 0;
+  // Conditioning (sync/lowpass.h): a causal Bessel low-pass at this -3 dB frequency on the sync
+  // grid, its delay taken back by the sync stage; 0: none.
+  double lowpass_hz = 0;
   std::vector<double> active_values;  // flags: physical values meaning "active" (default {1})
   int line = 0;           // YAML line, for messages
 
@@ -166,6 +169,13 @@ struct PlausibilityConfig {
   double wheel_speed_ratio_min = 0.9;    // vehicle_speed / wheel speeds' mean: 1 within tyre tolerances
   double wheel_speed_ratio_max = 1.1;
   double wheel_speed_correlation_min = 0.9;
+  // Checks of the fit (adequacy/fit_checks.h, docs/monitoring.md):
+  double rmse_floor_ratio_max = 5;       // held-out RMSE / the output's noise floor (white part of the residual)
+  double rmse_spread_ratio_max = 0.5;    // held-out RMSE / the measured output's spread about zero
+  double bound_shift_sigma_max = 1.0;    // EG's move were the bounds released, in sigma(EG)
+  double steady_state_z_max = 3;         // |dynamic EG - steady-state EG| / combined sigma
+  double steady_state_rel_bias = 0.1;    // the steady-state regression's bias allowance, share of |EG|
+  double halves_z_max = 3;               // |EG(half 1) - EG(half 2)| / combined sigma
 };
 
 struct LcmConfig {
@@ -196,6 +206,10 @@ struct VehicleConfig {
   std::string name;            // keys the learned state: a state from another vehicle is never loaded
   double wheelbase_m = 0;      // l, data sheet
   double mass_kg = 0;          // data sheet; m is fixed to it unless identification frees it
+  // Optional data-sheet values (0: not given). The axle loads narrow the parameter box's lv
+  // (parameter_box.h); the track widths let the rear wheel speeds give a yaw-rate reference.
+  double front_axle_load_kg = 0, rear_axle_load_kg = 0;
+  double track_front_m = 0, track_rear_m = 0;
 };
 
 struct Config {

@@ -40,6 +40,12 @@ struct EstimateMessage {
   double adequacy_rel_change = -1, adequacy_rel_sigma = -1, adequacy_kl_growth = -1, adequacy_hours_under_tolerance = 0;
   std::string adequacy_explanation;
   std::vector<std::string> effects;
+  struct CheckValue {
+    std::string name, verdict;
+    double value = 0;
+    std::string message;
+  };
+  std::vector<CheckValue> checks;  // every check behind `valid`
 };
 
 // Mirrors lcmtypes/ndsid_status_t.lcm.

@@ -1,7 +1,9 @@
 // Role signals arrive at different rates and phases; SignalSync resamples them onto a fixed
 // grid (default 100 Hz) by linear interpolation (flags: last value), marking a sample invalid
 // when a required role is older than its timeout. Driven only by data timestamps. A role with
-// a configured latency (signals.<role>.latency_s) is read at t_bus - latency: time alignment.
+// a configured latency (signals.<role>.latency_s) is read at t_bus - latency: time alignment. A
+// role with signals.<role>.lowpass_hz is filtered on the grid (lowpass.h) and read the filter's
+// delay later, so it stays aligned; the filter restarts after a gap or a stale stretch.
 #pragma once
 
 #include <array>
@@ -9,6 +11,7 @@
 #include <vector>
 
 #include "ndsid/config/config.h"
+#include "ndsid/sync/lowpass.h"
 #include "ndsid/sync/sample.h"
 
 namespace ndsid::sync {
@@ -50,6 +53,8 @@ class SignalSync {
     int head = 0;  // index of the newest
     int64_t timeout_ns = 0;
     int64_t shift_ns = 0;  // signals.<role>.latency_s: values are stored at t_bus - shift
+    BesselLowPass filter;  // signals.<role>.lowpass_hz (disabled: none)
+    int64_t lead_ns = 0;   // the filter's delay: grid sample t is filtered from the value at t + lead
     const Point& newest() const { return ring[head]; }
     const Point& at(int age) const { return ring[(head - age + kHistory) % kHistory]; }
     void Push(Point p);

@@ -3,6 +3,7 @@
     python -m ndsid decode --dbc car.dbc --log drive.log.gz --out signals.parquet [--wide [--rate-hz 50]]
     python -m ndsid decode --dbc car.dbc --log drive.blf --out signals.mf4
     python -m ndsid compare --config car.yaml [--log F ...] [--effects a,b] [--baseline a] --out DIR
+    python -m ndsid encode --csv run1.csv [run2.csv ...] --dbc dbc/timeseries.dbc --map map.yaml --out drive.log.gz
 
 The output's extension chooses the format (.parquet or .mf4). Exit 0 on success, 78 on a
 configuration or argument error (as the C++ CLI), 1 on any other error, each with one message.
@@ -38,6 +39,11 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--effects", help="the model's effects, comma-separated (default: the config's; 'none': base)")
     c.add_argument("--baseline", default="", help="the baseline's effects (default: the base model)")
     c.add_argument("--out", required=True, help="output folder")
+    e = sub.add_parser("encode", help="decoded time series (CSV) onto a DBC, as a candump log (ndsid.encode)")
+    e.add_argument("--csv", nargs="+", required=True, help="CSV files, one drive each, in this order")
+    e.add_argument("--dbc", required=True)
+    e.add_argument("--map", required=True, help="YAML: time column, and per MESSAGE.SIGNAL its column [scale, offset]")
+    e.add_argument("--out", required=True, help="candump log (.log, or .log.gz for gzip)")
     a = p.parse_args(argv)
 
     import ndsid
@@ -58,6 +64,14 @@ def main(argv: list[str] | None = None) -> int:
             else:
                 n = export.decode_to_mf4(a.log, a.dbc, a.out, bus=a.bus)
                 print(f"{a.out}: {n} channels")
+        elif a.command == "encode":
+            from ndsid import encode
+            try:
+                n = encode.encode_csv(a.csv, a.dbc, a.map, a.out)
+            except (ValueError, KeyError) as err:
+                raise ndsid.ConfigError(str(err)) from None
+            print(f"{a.out}: {n['frames']} frames from {n['files']} files ({n['seconds']:.1f} s of data, "
+                  f"{n['clipped']} values clipped to their signal's range)")
         else:
             out = export.compare_to_parquet(a.config, a.out, a.log, effects=_names(a.effects),
                                             baseline=_names(a.baseline) or [])

@@ -1,0 +1,74 @@
+// Validity from the fit: besides the data checks (plausibility.h), whether the fit itself can be
+// trusted (docs/monitoring.md, "Checks of the fit"). A fit converges somewhere on almost any data;
+// these checks ask whether it converged, whether the model explains what it was fitted to, whether
+// the box rather than the data set EG, and whether EG holds up against two estimates the fit did
+// not use:
+//   converged     the solver ended on its convergence test (not its iteration cap, not failed)
+//   explained     each fitted output's held-out RMSE against its noise floor (the white part of
+//                 its residual) and against the output's own spread about zero
+//   bounds        the box does not set EG: released, the bounds it holds parameters on would
+//                 move EG by at most a sigma (one Newton step from the estimate)
+//   steady_state  the dynamic EG against the closed-form steady-state EG, within their combined
+//                 sigma and the regression's known bias
+//   halves        the EGs of two disjoint halves of the window (alternate drives) within their
+//                 combined sigma
+// Each check is a Check of the estimate's PlausibilityReport, with its numbers in words, passed,
+// failed or skipped (too little data to judge).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ndsid/adequacy/plausibility.h"
+#include "ndsid/config/config.h"
+
+namespace ndsid::adequacy {
+
+// One fitted output at the estimate. Numbers in the output's display unit (m/s^2, deg/s).
+struct OutputFacts {
+  std::string output;      // "a_y" | "yaw_rate"
+  std::string unit;        // "m/s^2" | "deg/s"
+  double rmse = -1;        // held-out RMSE (training where nothing is held out); < 0: unknown
+  double floor = -1;       // white part of the residual, sqrt(sum (e_k - e_k-1)^2 / 2n); < 0: unknown
+  double spread = -1;      // the measured output's root mean square about zero; < 0: unknown
+  size_t residuals = 0;    // behind the RMSE
+};
+
+// A free parameter that ended on its bound, and how much EG depends on it.
+struct BoundFacts {
+  std::string name;
+  double value = 0;
+  double eg_correlation = 0;        // correlation of the parameter's estimate with EG's (covariance)
+  double eg_shift_deg_per_g = 0;    // EG's move were this bound alone released
+};
+
+// EG of one half of the window, fitted on its own.
+struct HalfFacts {
+  bool valid = false;
+  std::string reason;      // why not valid
+  double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
+  int drives = 0;
+};
+
+struct FitFacts {
+  std::string termination;       // the solver's termination type (CONVERGENCE, NO_CONVERGENCE, ...)
+  int iterations = 0;
+  std::vector<OutputFacts> outputs;
+  std::vector<BoundFacts> at_bound;
+  double eg_bound_shift_deg_per_g = 0;  // EG's move were every bound released
+  double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
+  bool steady_state_valid = false;
+  double steady_state_eg_deg_per_g = 0, steady_state_eg_se_deg_per_g = 0;
+  std::optional<std::pair<HalfFacts, HalfFacts>> halves;  // none: not fitted (too few drives)
+  int window_drives = 0;
+};
+
+// The five checks, appended to report.checks in the order above (one "explained" check per output).
+void CheckFit(const FitFacts& facts, const config::PlausibilityConfig& limits, PlausibilityReport& report);
+
+// The floor of a residual series from its sums: sum e_k^2 (s0), sum e_k e_k-1 (s1) over n pairs:
+// sum (e_k - e_k-1)^2 = 2 (s0 - s1) up to the ends, so floor = sqrt((s0 - s1) / n).
+double FloorFromSums(double s0, double s1, double n);
+
+}  // namespace ndsid::adequacy
