@@ -19,6 +19,12 @@ namespace {
 constexpr double kDegToRad = M_PI / 180.0;
 constexpr size_t kMaxConfigBytes = 16 << 20;  // a vehicle YAML is a few kB
 
+std::string FormatNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
 struct RoleInfo {
   const char* key;
   bool required;
@@ -89,6 +95,13 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
   c.dbc = Resolve(base_dir, top.String("dbc"));
   ReadSignals(top.Child("signals"), c);
   if (top.Has("sync")) ReadSync(top.Child("sync"), c.sync);
+  for (int i = 0; i < kNumRoles; ++i) {  // a low-pass needs a grid fast enough to run it
+    if (c.roles[i] && c.roles[i]->lowpass_hz > c.sync.rate_hz / 4) {
+      top.Child("signals").Child(RoleKey(static_cast<Role>(i)))
+          .Fail("lowpass_hz", FormatNumber(c.roles[i]->lowpass_hz) + " Hz is above a quarter of sync.rate_hz (" +
+                                  FormatNumber(c.sync.rate_hz) + " Hz)");
+    }
+  }
   if (top.Has("gate")) ReadGate(top.Child("gate"), c.gate);
   ReadIdentification(top.Has("identification") ? top.Child("identification") : YamlReader(YAML::Node(), path, "identification"),
                      c.vehicle, c.role(Role::kYawRate) != nullptr, c.identification);

@@ -1,7 +1,11 @@
 // The configuration's sections other than signals and model (config_sections.h).
 #include "config_sections.h"
 
+#include "ndsid/config/parameter_box.h"
+
 #include <algorithm>
+#include <cmath>
+#include <array>
 #include <cstdio>
 #include <filesystem>
 
@@ -14,31 +18,27 @@ std::string Shortest(double v) {
   return buf;
 }
 
-// identification.parameters: the base parameters' box, initial values and which are fixed.
+// identification.parameters: the base parameters' box, initial values and which are fixed. A
+// parameter without its own entry takes the physical box of this car (parameter_box.h: from
+// wheelbase, mass and, where given, axle loads), not another car's.
 void ReadParams(const YamlReader& r, const VehicleConfig& vehicle, IdentificationConfig& id) {
-  // Defaults: the study's box for a C-Max-class car (physics.md §1), m fixed to the data sheet.
-  struct Default {
-    const char* key;
-    double lo, hi;
-  };
-  const Default defaults[6] = {{"m", 1800, 2000},  {"Jz", 2200, 3200},   {"cv", 65000, 90000},
-                               {"ch", 110000, 135000}, {"lv", 1.0, 1.3}, {"is", 14.2, 15.3}};
+  static const char* const kKeys[6] = {"m", "Jz", "cv", "ch", "lv", "is"};
+  const std::array<ParameterSpec, 6> physical = PhysicalParameterBox(vehicle);
   const YamlReader params = r.Has("parameters") ? r.Child("parameters") : YamlReader(YAML::Node(), r.file(), "identification.parameters");
   for (int i = 0; i < 6; ++i) {
     ParameterSpec& p = id.params[i];
-    p.lower = defaults[i].lo;
-    p.upper = defaults[i].hi;
-    p.fixed = (i == 0);
-    if (params.Has(defaults[i].key)) {
-      const YamlReader pr = params.Child(defaults[i].key);
+    p = physical[i];
+    if (params.Has(kKeys[i])) {
+      const YamlReader pr = params.Child(kKeys[i]);
       p.lower = Ranged(pr, "min", p.lower, 0, kMaxParameterBound);
       p.upper = Ranged(pr, "max", p.upper, 0, kMaxParameterBound);
-      p.initial = Ranged(pr, "initial", 0.0, 0, kMaxParameterBound);
+      const bool own_box = pr.Has("min") || pr.Has("max");
+      p.initial = Ranged(pr, "initial", own_box ? 0.0 : p.initial, 0, kMaxParameterBound);
       p.fixed = pr.Bool("fixed", p.fixed);
       pr.Finish();
-      if (!(p.lower > 0 && p.upper > p.lower)) params.Fail(defaults[i].key, "needs 0 < min < max");
+      if (!(p.lower > 0 && p.upper > p.lower)) params.Fail(kKeys[i], "needs 0 < min < max");
     } else {
-      params.Raw(defaults[i].key);
+      params.Raw(kKeys[i]);
     }
     if (p.initial == 0.0) p.initial = (i == 0 && vehicle.mass_kg > 0) ? vehicle.mass_kg : 0.5 * (p.lower + p.upper);
     if (i == 0 && p.fixed && vehicle.mass_kg > 0) p.initial = vehicle.mass_kg;
@@ -47,7 +47,7 @@ void ReadParams(const YamlReader& r, const VehicleConfig& vehicle, Identificatio
         p.lower = std::min(p.lower, p.initial);
         p.upper = std::max(p.upper, p.initial);
       } else {
-        params.Fail(defaults[i].key, "initial value outside [min, max]");
+        params.Fail(kKeys[i], "initial value outside [min, max]");
       }
     }
   }
@@ -80,6 +80,22 @@ void ReadVehicle(const YamlReader& v, VehicleConfig& vehicle) {
   CheckRange(v, "wheelbase_m", vehicle.wheelbase_m, 1.0, 8.0);
   vehicle.mass_kg = v.Number("mass_kg");
   CheckRange(v, "mass_kg", vehicle.mass_kg, 200.0, 60000.0);
+  // Optional data-sheet values (0: not given): the axle loads narrow the box's lv.
+  vehicle.front_axle_load_kg = Ranged(v, "front_axle_load_kg", 0.0, 0, 60000.0);
+  vehicle.rear_axle_load_kg = Ranged(v, "rear_axle_load_kg", 0.0, 0, 60000.0);
+  if ((vehicle.front_axle_load_kg > 0) != (vehicle.rear_axle_load_kg > 0)) {
+    v.Fail(vehicle.front_axle_load_kg > 0 ? "rear_axle_load_kg" : "front_axle_load_kg",
+           "give both axle loads or neither");
+  }
+  if (vehicle.front_axle_load_kg > 0) {
+    const double sum = vehicle.front_axle_load_kg + vehicle.rear_axle_load_kg;
+    if (std::abs(sum - vehicle.mass_kg) > 0.15 * vehicle.mass_kg) {
+      v.Fail("rear_axle_load_kg", "the axle loads add up to " + Shortest(sum) + " kg, more than 15 % from mass_kg " +
+                                      Shortest(vehicle.mass_kg));
+    }
+  }
+  vehicle.track_front_m = Ranged(v, "track_front_m", 0.0, 0, 5.0);
+  vehicle.track_rear_m = Ranged(v, "track_rear_m", 0.0, 0, 5.0);
   v.Finish();
 }
 
@@ -183,6 +199,13 @@ void ReadPlausibility(const YamlReader& p, PlausibilityConfig& q) {
   q.wheel_speed_ratio_min = Ranged(p, "wheel_speed_ratio_min", q.wheel_speed_ratio_min, 0.01, 1);
   q.wheel_speed_ratio_max = Ranged(p, "wheel_speed_ratio_max", q.wheel_speed_ratio_max, 1, 100);
   q.wheel_speed_correlation_min = Ranged(p, "wheel_speed_correlation_min", q.wheel_speed_correlation_min, 0, 1);
+  // The checks of the fit (adequacy/fit_checks.h).
+  q.rmse_floor_ratio_max = Ranged(p, "rmse_floor_ratio_max", q.rmse_floor_ratio_max, 1, 1000);
+  q.rmse_spread_ratio_max = Ranged(p, "rmse_spread_ratio_max", q.rmse_spread_ratio_max, 0.01, 10);
+  q.bound_shift_sigma_max = Ranged(p, "bound_shift_sigma_max", q.bound_shift_sigma_max, 0.01, 1000);
+  q.steady_state_z_max = Ranged(p, "steady_state_z_max", q.steady_state_z_max, 0.1, 1000);
+  q.steady_state_rel_bias = Ranged(p, "steady_state_rel_bias", q.steady_state_rel_bias, 0, 10);
+  q.halves_z_max = Ranged(p, "halves_z_max", q.halves_z_max, 0.1, 1000);
   p.Finish();
 }
 

@@ -70,6 +70,9 @@ RoleSignal ReadRole(const YamlReader& parent, Role role) {
     if (role == Role::kLateralAcceleration && s.latency_s != 0.0) {
       r.Fail("latency_s", "the lateral acceleration is the time reference: give the other roles' latencies relative to it");
     }
+    // Conditioning (sync/lowpass.h): 0 = none; the upper limit against the sync rate is checked
+    // once sync is read (ParseConfig).
+    s.lowpass_hz = Ranged(r, "lowpass_hz", 0.0, 0, 250);
   }
   r.Finish();
   return s;
