@@ -59,25 +59,23 @@ Check Explained(const OutputFacts& o, const config::PlausibilityConfig& q) {
 
 Check Bounds(const FitFacts& f, const config::PlausibilityConfig& q) {
   Check c{.name = "bounds"};
-  std::string relevant, other;
-  int n_relevant = 0;
-  for (const BoundFacts& b : f.at_bound) {
-    const bool eg = b.in_eg || std::abs(b.eg_correlation) >= q.bound_eg_correlation_min;
-    std::string& list = eg ? relevant : other;
-    list += Fmt("%s%s = %.4g (corr. with EG %+.2f)", list.empty() ? "" : ", ", b.name.c_str(), b.value, b.eg_correlation);
-    n_relevant += eg ? 1 : 0;
-  }
-  c.value = n_relevant;
-  c.verdict = n_relevant == 0 ? Verdict::kPassed : Verdict::kFailed;
   if (f.at_bound.empty()) {
+    c.verdict = Verdict::kPassed;
     c.message = "no parameter ended on its bound";
-  } else if (n_relevant == 0) {
-    c.message = "on their bounds, not moving EG (|corr.| < " + Fmt("%.2g", q.bound_eg_correlation_min) + "): " + other;
-  } else {
-    c.message = "EG depends on parameters that ended on their bounds: " + relevant +
-                ": the box, not the data, sets EG (widen identification.parameters, or check the vehicle data)";
-    if (!other.empty()) c.message += "; also on their bounds: " + other;
+    return c;
   }
+  std::string list;
+  for (const BoundFacts& b : f.at_bound)
+    list += Fmt("%s%s = %.4g (EG %+.3f deg/g if released, corr. %+.2f)", list.empty() ? "" : ", ", b.name.c_str(), b.value,
+                b.eg_shift_deg_per_g, b.eg_correlation);
+  const double s = f.eg_se_deg_per_g > 0 ? f.eg_bound_shift_deg_per_g / f.eg_se_deg_per_g : INFINITY;
+  c.value = s;
+  c.verdict = std::abs(s) <= q.bound_shift_sigma_max ? Verdict::kPassed : Verdict::kFailed;
+  c.message = Fmt("released, the bounds would move EG by %+.3f deg/g = %+.2f sigma (accepted <= %.2g): ", f.eg_bound_shift_deg_per_g, s,
+                  q.bound_shift_sigma_max) +
+              list;
+  if (c.verdict == Verdict::kFailed)
+    c.message += ": the box, not the data, sets EG (widen identification.parameters, or check the vehicle data)";
   return c;
 }
 

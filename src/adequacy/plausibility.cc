@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdarg>
 #include <cstdio>
 #include <map>
 
@@ -18,6 +19,15 @@ struct Regression {
   void Merge(const Regression& o) { sxx += o.sxx, sxy += o.sxy, syy += o.syy, seconds += o.seconds; }
   double gain() const { return sxx > 0 ? sxy / sxx : 0; }
   double correlation() const { return sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : 0; }
+  // The gain's standard error, counting one independent sample per kIndependentS of driving
+  // (the residuals of driving data are correlated over about a second).
+  double gain_se() const {
+    if (!(sxx > 0) || seconds <= 0) return INFINITY;
+    const double n_eff = std::max(1.0, seconds / kIndependentS);
+    const double rss_per_s = std::max(0.0, syy - sxy * sxy / sxx) / seconds;  // residual power
+    return std::sqrt(rss_per_s / (sxx / seconds) / n_eff);
+  }
+  static constexpr double kIndependentS = 1.0;
 };
 
 struct DriveSums {
@@ -27,9 +37,13 @@ struct DriveSums {
   int64_t t0_ns = INT64_MAX;
 };
 
-std::string Fmt(const char* format, double a, double b = 0, double c = 0, double d = 0) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, format, a, b, c, d);
+std::string Fmt(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string Fmt(const char* format, ...) {
+  char buf[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf, sizeof buf, format, args);
+  va_end(args);
   return buf;
 }
 
@@ -38,16 +52,34 @@ std::string Fmt(const char* format, double a, double b = 0, double c = 0, double
 constexpr double kMinKinematicMps2 = 0.5;  // |v r| [m/s^2]
 constexpr double kMinSteerRad = 0.05;      // |d_sw| at the steering wheel [rad], about 3 deg
 constexpr double kMaxSteerLatAccel = 3.0;  // |a_y| for the steering check: the linear range
+// a_y = v (r + beta'): the kinematic relation a_y = v r holds where beta' is small, in quasi-steady
+// turning. Samples whose yaw acceleration (over +- kYawAccelHalfWindowS) exceeds this are left out
+// of the kinematics check: in a quick transient (a race car between corners, a low-speed
+// manoeuvre) beta' makes a_y lead or lag v r by a tenth of a second, which a gain cannot show.
+constexpr double kMaxYawAccelRadps2 = 0.05;
+constexpr double kYawAccelHalfWindowS = 0.25;
+
+// Whether sample k of the segment turns quasi-steadily: its yaw acceleration over
+// +- kYawAccelHalfWindowS (a difference over half a second: the gyro's noise averages out) is small.
+bool QuasiSteady(const stats::Segment& seg, size_t k) {
+  const size_t h = std::max<size_t>(1, static_cast<size_t>(std::lround(kYawAccelHalfWindowS / seg.dt_s)));
+  const size_t a = k >= h ? k - h : 0, b = std::min(seg.samples.size() - 1, k + h);
+  if (b <= a) return false;
+  const double ra = seg.samples[a].yaw_rate_radps, rb = seg.samples[b].yaw_rate_radps;
+  return std::isfinite(ra) && std::isfinite(rb) && std::abs(rb - ra) / ((b - a) * seg.dt_s) <= kMaxYawAccelRadps2;
+}
 
 void Accumulate(const stats::Segment& seg, DriveSums& d) {
   d.t0_ns = std::min(d.t0_ns, seg.t0_ns);
   d.steer_uses_yaw = seg.has_yaw_rate;
-  for (const stats::SegmentSample& s : seg.samples) {
+  for (size_t k = 0; k < seg.samples.size(); ++k) {
+    const stats::SegmentSample& s = seg.samples[k];
     const double v = s.speed_mps, r = s.yaw_rate_radps, a = s.lat_accel_mps2, delta = s.steer_rad;
     if (!std::isfinite(v) || !std::isfinite(a) || !std::isfinite(delta)) continue;
     if (seg.has_yaw_rate && std::isfinite(r)) {
       // Either side large: a unit mistake that shrinks one side must not hide the samples.
-      if (std::abs(v * r) > kMinKinematicMps2 || std::abs(a) > kMinKinematicMps2) d.kinematic.Add(v * r, a, seg.dt_s);
+      if ((std::abs(v * r) > kMinKinematicMps2 || std::abs(a) > kMinKinematicMps2) && QuasiSteady(seg, k))
+        d.kinematic.Add(v * r, a, seg.dt_s);
       if (std::abs(delta) > kMinSteerRad && std::abs(a) < kMaxSteerLatAccel) d.steer.Add(v * delta, r, seg.dt_s);
     } else if (std::abs(delta) > kMinSteerRad && std::abs(a) < kMaxSteerLatAccel) {
       d.steer.Add(v * v * delta, a, seg.dt_s);
@@ -55,26 +87,41 @@ void Accumulate(const stats::Segment& seg, DriveSums& d) {
   }
 }
 
+// The likely causes of a kinematic gain g (correlation rho) outside the limits, most likely first.
+std::string KinematicCauses(double g, double rho, const config::PlausibilityConfig& q) {
+  if (g < 0) return "the sign of lateral_acceleration or of yaw_rate is flipped";
+  // The factors a unit mix-up gives (km/h vs m/s, mph vs km/h and m/s, g vs m/s^2, deg vs rad).
+  constexpr double kUnitFactors[] = {3.6, 1.609344, 2.236936, 9.81, 57.29578};
+  const auto near = [&](double x, double f) { return std::abs(std::log(x / f)) < std::log(1.12); };
+  std::string unit;
+  for (double f : kUnitFactors)
+    if (near(g, f) || near(g, 1 / f)) unit = Fmt("%.4g", g > 1 ? f : 1 / f);
+  const bool correlated = rho >= q.kinematic_correlation_min;
+  if (correlated && !unit.empty())
+    return "a unit is wrong (the gain is a unit factor, " + unit + ": vehicle_speed, lateral_acceleration or yaw_rate)";
+  if (correlated && g > 0.5 && g < 2)
+    return Fmt("a sensor scale error: the accelerometer, the gyro or the speed reads %+.0f %% against the others "
+               "(a mounting tilt, a miscalibrated sensor, a tyre radius; or a unit is wrong)", 100 * (g - 1));
+  if (correlated) return "a unit is wrong (vehicle_speed, lateral_acceleration or yaw_rate)";
+  if (g > 0.5 && g < 2)
+    return "a_y and v*r move together only loosely: noise on a_y or the yaw rate (a vibrating sensor: "
+           "signals.<role>.lowpass_hz), or a wrong signal mapped";
+  return "a_y and v*r do not move together: a wrong signal mapped, or one too noisy to use";
+}
+
 void DataChecks(const DriveSums& d, const config::PlausibilityConfig& q, std::vector<Check>& out) {
   Check k{.name = "kinematics"};
   k.informative_s = d.kinematic.seconds;
   if (k.informative_s >= q.min_informative_s) {
-    const double g = d.kinematic.gain(), rho = d.kinematic.correlation();
+    const double g = d.kinematic.gain(), rho = d.kinematic.correlation(), se = d.kinematic.gain_se();
     k.value = g;
     const bool ok = g >= q.kinematic_gain_min && g <= q.kinematic_gain_max && rho >= q.kinematic_correlation_min;
     k.verdict = ok ? Verdict::kPassed : Verdict::kFailed;
-    k.message = Fmt("a_y against v*r: gain %.3f (physically 1, accepted %.2f..%.2f), correlation %.3f", g,
-                    q.kinematic_gain_min, q.kinematic_gain_max, rho);
-    if (!ok) {
-      if (g < 0)
-        k.message += ": the sign of lateral_acceleration or of yaw_rate is flipped";
-      else if (rho >= q.kinematic_correlation_min)
-        k.message += ": a unit is wrong (vehicle_speed, lateral_acceleration or yaw_rate)";
-      else
-        k.message += ": a_y and v*r do not move together (wrong signal mapped?)";
-    }
+    k.message = Fmt("a_y against v*r in quasi-steady turning: gain %.3f +- %.3f (physically 1, accepted %.2f..%.2f), correlation %.3f",
+                    g, se, q.kinematic_gain_min, q.kinematic_gain_max, rho);
+    if (!ok) k.message += ": " + KinematicCauses(g, rho, q);
   } else {
-    k.message = Fmt("a_y against v*r: skipped, %.0f s of turning data (needs %.0f s)", k.informative_s, q.min_informative_s);
+    k.message = Fmt("a_y against v*r: skipped, %.0f s of quasi-steady turning (needs %.0f s)", k.informative_s, q.min_informative_s);
   }
   out.push_back(k);
 
@@ -122,11 +169,24 @@ bool PlausibilityReport::undetermined() const {
   return any;
 }
 
+namespace {
+// What a failed check says about the estimate, before its message.
+std::string ReasonPrefix(const std::string& check) {
+  if (check == "determined") return "not determined: ";
+  if (check == "converged") return "not converged: ";
+  if (check.rfind("explained_", 0) == 0) return "not explained: ";
+  if (check == "bounds") return "set by the box: ";
+  if (check == "steady_state") return "contradicts the steady state: ";
+  if (check == "halves") return "not reproducible: ";
+  return "implausible: ";
+}
+}  // namespace
+
 std::string PlausibilityReport::Reason() const {
   std::string out;
   for (const Check& c : checks) {
     if (c.verdict != Verdict::kFailed) continue;
-    out += std::string(out.empty() ? "" : "; ") + (c.name == "determined" ? "not determined: " : "implausible: ") + c.message;
+    out += std::string(out.empty() ? "" : "; ") + ReasonPrefix(c.name) + c.message;
   }
   return out;
 }
@@ -227,7 +287,7 @@ void CheckEstimate(const EstimateFacts& f, const config::PlausibilityConfig& q, 
   det.verdict = sigma_ok && bounds_ok ? Verdict::kPassed : Verdict::kFailed;
   det.message = Fmt("EG %.2f +- %.2f deg/g (sigma/|EG| %.2f", f.eg_deg_per_g, f.eg_se_deg_per_g, det.value) +
                 Fmt(", accepted <= %.2f or sigma <= %.2f deg/g)", q.eg_rel_se_max, q.eg_se_floor_deg_per_g) +
-                Fmt(", %.0f of %.0f free parameters on their bounds", f.free_params_at_bound, f.free_params);
+                Fmt(", %d of %d free parameters on their bounds", f.free_params_at_bound, f.free_params);
   if (!sigma_ok) det.message += ": the data do not determine EG (too little or too uniform driving)";
   if (!bounds_ok) det.message += ": every free parameter is on its bound (box too narrow, or a sign/unit error)";
   report.checks.push_back(det);

@@ -176,7 +176,10 @@ const char* AscReader::ClassicFrame(const Tokens& tok, CanFrame& frame) noexcept
     return nullptr;
   }
   if (!IEquals(tok.t[4], "d")) return "expected 'd' or 'r' after the direction";
-  if (tok.n < 6 || !ParseNumber(tok.t[5], 16, dlc) || dlc > 15) return "bad DLC";
+  // The DLC in the file's base (python-can's reading; hex when that fails). A classic frame
+  // carries at most 8 bytes: a larger DLC, also one above 15 (python-can writes "40" for a
+  // classic message given 64 bytes), means the first 8 bytes, as python-can reads it.
+  if (tok.n < 6 || !(ParseNumber(tok.t[5], base_, dlc) || ParseNumber(tok.t[5], 16, dlc))) return "bad DLC";
   return Bytes(tok, 6, dlc > 8 ? 8 : static_cast<int>(dlc), frame);
 }
 
@@ -192,6 +195,7 @@ const char* AscReader::FdFrame(const Tokens& tok, CanFrame& frame) noexcept {
     frame.id = kVectorErrorClass;
     return nullptr;
   }
+  if (tok.n >= 5 && IsDirection(tok.t[4])) return "CANFD line with the id before the direction (a layout not read)";
   if (tok.n < 9 || !IsDirection(tok.t[3])) return "CANFD line too short";
   if (!Id(tok.t[4], frame)) return "bad identifier";
   size_t k = 5;
@@ -224,7 +228,7 @@ const char* AscReader::EventLine(const Tokens& tok, CanFrame& frame) noexcept {
     why = FdFrame(tok, frame);
     if (why == nullptr) {
       const int bus = BusForChannel(channel == 0 ? 0 : channel - 1);
-      if (bus < 0) return "channel number above 256";
+      if (bus < 0) return "more than 256 channels in one file";
       frame.bus = static_cast<uint16_t>(bus);
     }
   } else {
@@ -233,7 +237,7 @@ const char* AscReader::EventLine(const Tokens& tok, CanFrame& frame) noexcept {
     why = ClassicFrame(tok, frame);
     if (why == nullptr) {
       const int bus = BusForChannel(channel == 0 ? 0 : channel - 1);
-      if (bus < 0) return "channel number above 256";
+      if (bus < 0) return "more than 256 channels in one file";
       frame.bus = static_cast<uint16_t>(bus);
     }
   }

@@ -1,6 +1,7 @@
-// Vector BLF (binary logging format) reader: zlib or uncompressed LOG_CONTAINER objects,
-// CAN_MESSAGE, CAN_MESSAGE2, CAN_FD_MESSAGE, CAN_FD_MESSAGE_64 and CAN_ERROR_EXT; other
-// objects are skipped and counted. Streams container by container.
+// Vector BLF (binary logging format) reader: zlib or uncompressed LOG_CONTAINER objects of any
+// size, streamed through inflate in pieces; CAN_MESSAGE, CAN_MESSAGE2, CAN_FD_MESSAGE,
+// CAN_FD_MESSAGE_64, CAN_ERROR, CAN_ERROR_EXT and CAN_FD_ERROR_64 (blf_objects.h); other
+// objects are skipped and counted.
 #pragma once
 
 #include <memory>

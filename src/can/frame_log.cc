@@ -70,7 +70,6 @@ const char* BinaryKind(std::string_view h, const char*& todo) {
       {"\x4d\x3c\xb2\xa1", "a pcap capture", "replay it onto a vcan interface and record with `candump -l`"},
       {"\xa1\xb2\x3c\x4d", "a pcap capture", "replay it onto a vcan interface and record with `candump -l`"},
       {"\x0a\x0d\x0d\x0a", "a pcapng capture", "replay it onto a vcan interface and record with `candump -l`"},
-      {"UnFinMF ", "an unfinalised MDF file (the logger did not close it)", "finalise it first, e.g. with asammdf: MDF(f).save(g)"},
       {"BZh", "a bzip2-compressed file", "decompress it first (bunzip2)"},
       {"\xfd" "7zXZ", "an xz-compressed file", "decompress it first (unxz)"},
       {"\x28\xb5\x2f\xfd", "a zstd-compressed file", "decompress it first (unzstd)"},
@@ -106,7 +105,7 @@ LogFormat DetectLogFormat(const std::string& path) {
   const std::string_view h(head);
   if (h.empty()) return LogFormat::kCandump;  // an empty log: no frames
   if (StartsWith(h, "LOGG")) return LogFormat::kBlf;
-  if (StartsWith(h, "MDF     ")) {
+  if (StartsWith(h, "MDF     ") || StartsWith(h, "UnFinMF ")) {  // finalised, or as a logger left it
     if (gzip) Unsupported(path, "a gzip-compressed MF4 file", "decompress it first (gunzip); MF4 needs random access");
     if (h.size() >= 10 && h[8] < '4') {
       Unsupported(path, "an MDF 3 file", "convert it to MDF 4 (asammdf: MDF(f).convert('4.10').save(g))");

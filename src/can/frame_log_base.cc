@@ -30,7 +30,10 @@ ReadResult FrameLogBase::Read(std::span<CanFrame> out, int /*timeout_ms*/) noexc
   while (count < out.size() && !stopped_) {
     CanFrame& frame = out[count];
     frame = CanFrame{};
-    if (!Next(frame)) break;
+    if (!Next(frame)) {
+      CheckMostlyMalformed();
+      break;
+    }
     if (frame.timestamp_ns < last_timestamp_ns_) ++counters_.time_backwards;
     last_timestamp_ns_ = frame.timestamp_ns;
     if (frame.error()) ++counters_.error_frames;
@@ -50,10 +53,22 @@ std::string FrameLogBase::Describe() const {
 }
 
 void FrameLogBase::Reject(uint64_t position, const char* reason) noexcept {
+  if (!keeps_malformed()) {
+    ++counters_.malformed;
+    return;
+  }
+  try {
+    Reject(position, std::string(reason));
+  } catch (...) {
+    ++counters_.malformed;
+  }
+}
+
+void FrameLogBase::Reject(uint64_t position, std::string reason) noexcept {
   ++counters_.malformed;
   if (first_malformed_.size() >= kKeptMalformed) return;
   try {
-    first_malformed_.push_back({position, reason});
+    first_malformed_.push_back({position, std::move(reason)});
     log_->warn("{}", Locate(first_malformed_.back()));
     if (first_malformed_.size() == kKeptMalformed) {
       log_->warn("{}: further malformed records are counted, not logged", path_);
@@ -72,16 +87,39 @@ void FrameLogBase::Stop(uint64_t position, const std::string& why) noexcept {
   }
 }
 
-int FrameLogBase::BusForChannel(uint32_t channel) noexcept {
-  if (channel > kMaxChannel) return -1;
-  int& index = bus_of_channel_[channel];
-  if (index >= 0) return index;
+void FrameLogBase::CheckMostlyMalformed() noexcept {
+  if (stopped_ || counters_.malformed == 0 || counters_.malformed <= counters_.frames) return;
+  if (first_malformed_.empty()) {
+    Stop(0, "most CAN records are malformed");
+    return;
+  }
+  try {
+    const MalformedRecord& first = first_malformed_.front();
+    Stop(first.position, std::to_string(counters_.malformed) + " of " +
+                             std::to_string(counters_.malformed + counters_.frames) +
+                             " CAN records are malformed, the first: " + Locate(first));
+  } catch (...) {
+    Stop(0, "most CAN records are malformed");
+  }
+}
+
+int FrameLogBase::BusForChannel(uint64_t channel) noexcept {
+  if (last_channel_.first == channel) return last_channel_.second;
+  for (const auto& entry : bus_of_channel_) {
+    if (entry.first == channel) {
+      last_channel_ = entry;
+      return entry.second;
+    }
+  }
+  if (bus_of_channel_.size() >= kMaxBuses) return -1;
   try {
     bus_names_.push_back("can" + std::to_string(channel));
+    bus_of_channel_.emplace_back(channel, static_cast<int>(bus_names_.size() - 1));
   } catch (...) {
     return -1;
   }
-  return index = static_cast<int>(bus_names_.size() - 1);
+  last_channel_ = bus_of_channel_.back();
+  return last_channel_.second;
 }
 
 }  // namespace ndsid::can::detail

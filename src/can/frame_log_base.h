@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,10 @@ class FrameLogBase : public FrameLog {
   ~FrameLogBase() override;
 
   ReadResult Read(std::span<CanFrame> out, int timeout_ms) noexcept final;
+  // At the end of the file: when most records were malformed (more rejected than read),
+  // reading stops with io_error() saying so: such a file is not a log of this format that
+  // happens to be empty, and no tool may take it as complete.
+  void CheckMostlyMalformed() noexcept;
   const SourceCounters& counters() const noexcept final { return counters_; }
   const std::vector<std::string>& bus_names() const noexcept final { return bus_names_; }
   LogFormat format() const noexcept final { return format_; }
@@ -52,16 +57,21 @@ class FrameLogBase : public FrameLog {
   virtual bool Next(CanFrame& frame) noexcept = 0;
 
   void Reject(uint64_t position, const char* reason) noexcept;
+  // The same with a reason built by the caller; build it only when keeps_malformed().
+  void Reject(uint64_t position, std::string reason) noexcept;
+  // True while rejected records are still kept (and worth a detailed reason).
+  bool keeps_malformed() const noexcept { return first_malformed_.size() < kKeptMalformed; }
   // Stops reading: the file is truncated or unreadable from here on.
   void Stop(uint64_t position, const std::string& why) noexcept;
   bool stopped() const noexcept { return stopped_; }
   void Skip() noexcept { ++skipped_; }
-  // Bus index of channel number `channel` (named "can<channel>"), -1 beyond kMaxChannel.
-  int BusForChannel(uint32_t channel) noexcept;
+  // Bus index of channel number `channel` (named "can<channel>"); -1 when the file already
+  // named kMaxBuses other channels.
+  int BusForChannel(uint64_t channel) noexcept;
 
   const std::string& path() const noexcept { return path_; }
 
-  static constexpr uint32_t kMaxChannel = 255;
+  static constexpr size_t kMaxBuses = 256;
 
  private:
   std::string path_;
@@ -70,7 +80,8 @@ class FrameLogBase : public FrameLog {
   std::shared_ptr<spdlog::logger> log_;
   SourceCounters counters_;
   std::vector<std::string> bus_names_;
-  std::vector<int> bus_of_channel_ = std::vector<int>(kMaxChannel + 1, -1);
+  std::vector<std::pair<uint64_t, int>> bus_of_channel_;  // channel -> bus index, in order of appearance
+  std::pair<uint64_t, int> last_channel_{UINT64_MAX, -1};  // the last lookup (frames come in runs)
   std::vector<MalformedRecord> first_malformed_;
   std::string io_error_;
   uint64_t skipped_ = 0;

@@ -1,6 +1,7 @@
 // ASAM MDF 4 building blocks for the MF4 bus-logging reader: block headers with links and
-// data, and the record byte stream of a data group (DT, DZ deflate / transposed deflate,
-// DL lists, HL headers), read block by block so a file is never loaded whole.
+// data, and the byte stream of a data group's records or of a channel's signal data (DT / SD,
+// DZ deflate / transposed deflate, DL lists, HL headers), read block by block so a file is
+// never loaded whole; with the rules for unfinalised files that asammdf applies.
 #pragma once
 
 #include <cstdint>
@@ -42,34 +43,58 @@ struct Mf4Block {
 std::optional<Mf4Block> ReadMf4Block(const Mf4File& file, uint64_t offset, bool load_data, std::string& why);
 
 inline constexpr uint64_t kMaxMetaBytes = 1u << 20;
+inline constexpr uint32_t kMaxMf4RecordBytes = 1u << 16;  // a CAN frame record is well under 200 bytes
 
-// The bytes of a data group's records, in order, across whatever block structure holds them.
+// The unfinalised flags of the identification block (id_unfin_flags) this reader acts on.
+inline constexpr uint16_t kUnfinCycleCounts = 0x01;  // CG cycle counts not written
+inline constexpr uint16_t kUnfinLastDt = 0x04;       // the last DT block's length not written
+inline constexpr uint16_t kUnfinLastDl = 0x10;       // the last DL block's links not written
+inline constexpr uint16_t kUnfinVlsdOffsets = 0x40;  // VLSD offsets not written
+
+// The offset of the first block signature ("##" + a block id + 4 zero bytes, at a multiple of
+// 8) at or after `from`, or the file size: where asammdf ends a block whose length is not
+// written.
+uint64_t FindNextMf4Block(const Mf4File& file, uint64_t from) noexcept;
+
+// The bytes of a data group's records (or of a channel's signal data), in order, across
+// whatever block structure holds them.
 class Mf4DataStream {
  public:
-  Mf4DataStream(const Mf4File& file, uint64_t data_link) : file_(&file) {
+  // `unfinalised` are the identification block's flags when the file is unfinalised: with
+  // kUnfinLastDt the last DT block runs to the next block or the end of the file, with
+  // kUnfinLastDl the empty links of the last DL are the data blocks that follow it.
+  Mf4DataStream(const Mf4File& file, uint64_t data_link, uint16_t unfinalised = 0)
+      : file_(&file), unfinalised_(unfinalised) {
     if (data_link != 0) pending_.push_back(data_link);
   }
   // Copies exactly n bytes; false at the end of the data or on an error (then error() is set).
   bool Read(uint8_t* out, size_t n) noexcept;
   // Skips n bytes (same result as Read into a scratch buffer).
-  bool SkipBytes(size_t n) noexcept;
+  bool SkipBytes(uint64_t n) noexcept;
   const std::string& error() const noexcept { return error_; }
   // File offset of the block being read (for located messages).
   uint64_t block_offset() const noexcept { return block_offset_; }
-  // True when every byte was consumed and no data block was left unread.
-  bool exhausted() const noexcept { return pending_.empty() && avail() == 0; }
+  // Bytes delivered (read or skipped) so far.
+  uint64_t position() const noexcept { return position_; }
 
  private:
   size_t avail() const noexcept { return buffer_.size() - pos_; }
   bool Refill() noexcept;  // next piece of data into buffer_; false at end or on error
+  bool ReadDtPiece() noexcept;
+  bool StartDt(uint64_t data_at, uint64_t data_bytes) noexcept;
+  bool InflateDz(uint64_t data_at, uint64_t data_bytes) noexcept;
+  void ExpandList(const Mf4Block& dl) noexcept;
   bool Fail(const std::string& why) noexcept;
 
   const Mf4File* file_;
-  std::deque<uint64_t> pending_;  // blocks still to visit (DT, DZ, DL, HL)
+  uint16_t unfinalised_ = 0;
+  std::deque<uint64_t> pending_;  // blocks still to visit (DT, SD, DZ, DL, HL)
   std::unordered_set<uint64_t> visited_;  // blocks read: a list that links back is refused, not looped
   std::vector<uint8_t> buffer_;   // current piece
   size_t pos_ = 0;
+  uint64_t position_ = 0;
   uint64_t dt_next_ = 0, dt_left_ = 0;  // the unread part of a DT block in the file
+  bool dt_open_ = false;  // the DT block has no written length: it ends at the next block signature
   uint64_t block_offset_ = 0;
   bool cut_ = false;  // the DT block being read ends beyond the end of the file
   std::string error_;

@@ -26,7 +26,7 @@ std::array<ParameterSpec, 6> PhysicalParameterBox(const VehicleConfig& v, const 
   const double mg = m * kGravity_mps2;
 
   std::array<ParameterSpec, 6> p{};
-  p[0] = {m, m, m, true};
+  p[0] = {0.8 * m, 1.25 * m, m, true};  // fixed to the data sheet; the box where it is freed
   p[1] = {q.dynamic_index_min * m * lvlh_min * l * l, q.dynamic_index_max * m * lvlh_max * l * l,
           q.dynamic_index_typical * m * lvlh(s0) * l * l, false};
   p[2] = {q.cornering_coefficient_min * mg * (1 - s_max), q.cornering_coefficient_max * mg * (1 - s_min),

@@ -112,6 +112,21 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
                                           const std::vector<Source>& lat, const std::vector<Source>& steer,
                                           const InitOptions& options, InitResult& result);
 
+// Step 2, the steering: r = g v d_sw / (1 + v^2/v_ch^2) at low lateral acceleration, against the
+// confirmed yaw rate `yaw` (times yaw_to_iso: its unit factor and ISO sign) and `lat` (times
+// lat_to_si) with the speed v_si [m/s] on the grid. Fills result's steering role.
+void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, const Source& lat, double yaw_to_iso,
+                     double lat_to_si, const std::vector<double>& v_si, const std::vector<Source>& steer,
+                     const InitOptions& options, InitResult& result);
+
+// Step 3, a_x = dv/dt from the speed v_si [m/s] on the grid (empty: not confirmed). Fills
+// result's longitudinal-acceleration role.
+void ProposeLongitudinal(const BusData& data, Grid& grid, const std::vector<double>& v_si, const std::vector<Source>& lon,
+                         InitResult& result);
+
+// The proposal of role r (result.roles is indexed by Role for the roles up to a_x).
+inline RoleProposal& RoleOf(InitResult& result, config::Role r) { return result.roles[static_cast<size_t>(r)]; }
+
 // +1 when a DBC comment says positive to the left (counter-clockwise), -1 to the right, else 0.
 int CommentDirection(const std::string& comment);
 

@@ -1,4 +1,5 @@
-// `ndsid init`'s 20 Hz grid and fits (vehicle_init_detail.h), and the fallback for a bus without a yaw rate.
+// `ndsid init`'s 20 Hz grid and fits (vehicle_init_detail.h): the steering's and a_x's, and the fallback for a bus
+// without a yaw rate.
 #include <spdlog/fmt/fmt.h>
 
 #include <algorithm>
@@ -219,6 +220,114 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
   std::vector<double> v_si = grid.Of(*best.v);
   for (double& x : v_si) x *= su[bv].to_si;
   return v_si;
+}
+
+void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, const Source& lat, double yaw_to_iso,
+                     double lat_to_si, const std::vector<double>& v_si, const std::vector<Source>& steer,
+                     const InitOptions& options, InitResult& result) {
+  std::vector<double> r_si = grid.Of(yaw), a_si = grid.Of(lat);
+  for (double& x : r_si) x *= yaw_to_iso;
+  for (double& x : a_si) x *= lat_to_si;
+  struct SteerFit {
+    const Source* s = nullptr;
+    Fit fit;
+    double score = -1;
+  } bs;
+  std::vector<std::pair<const Source*, Fit>> steer_fits;
+  for (const auto& s : steer) {
+    const auto& dg = grid.Of(s);
+    std::vector<double> x(dg.size(), NAN);
+    for (size_t i = 0; i < dg.size(); ++i)
+      if (v_si[i] > 4.0 && std::fabs(a_si[i]) < 2.0)
+        x[i] = v_si[i] * dg[i] / (1.0 + (v_si[i] * v_si[i]) / (kCharSpeed_mps * kCharSpeed_mps));
+    const Fit f = LinearFit(x, r_si);
+    steer_fits.emplace_back(&s, f);
+    const double score = std::fabs(f.corr) + 0.01 * s.name_score;
+    if (f.n >= 100 && score > bs.score) bs = {&s, f, score};
+  }
+  RoleProposal& p = RoleOf(result, Role::kSteeringWheelAngle);
+  if (!(bs.s != nullptr && std::fabs(bs.fit.corr) >= 0.5)) {
+    p.reason = bs.s == nullptr ? "too little driving above 4 m/s to test r = v d_sw / (is l)"
+                               : fmt::format("best candidate {} does not follow r = v d_sw / (is l) (corr {:+.2f} < 0.5)",
+                                             bs.s->expression, bs.fit.corr);
+    return;
+  }
+  const auto& units = SteerUnits();
+  const auto prior = UnitPrior(units, bs.s->unit);
+  const double l = options.reference_wheelbase_m;
+  std::vector<double> w(units.size());
+  double total = 0;
+  for (size_t i = 0; i < units.size(); ++i) {
+    const double is = units[i].to_si / (std::fabs(bs.fit.gain) * l);
+    const double d = std::max({0.0, std::log(10.0 / is), std::log(is / 25.0)});
+    w[i] = prior[i] * Gauss(d / 0.25);
+    total += w[i];
+  }
+  const size_t bu = static_cast<size_t>(std::max_element(w.begin(), w.end()) - w.begin());
+  const double is = units[bu].to_si / (std::fabs(bs.fit.gain) * l);
+  const int rel = bs.fit.gain > 0 ? 1 : -1;
+  p.found = true;
+  SetSource(p, *bs.s, data);
+  p.unit = units[bu].name;
+  p.sign = rel;  // r_si is already ISO 8855 (times sr)
+  const double p_unit = total > 0 ? w[bu] / total : 0;
+  p.confidence = std::min({p_unit, std::fabs(bs.fit.corr), RoleOf(result, Role::kYawRate).confidence});
+  p.evidence.push_back(fmt::format(
+      "r = g v d_sw / (1 + v^2/v_ch^2), v_ch = {:.0f} m/s, |a_y| < 2 m/s^2, {} samples: corr {:+.3f}, g = {:.5g} ± {:.2g}",
+      kCharSpeed_mps, bs.fit.n, bs.fit.corr, bs.fit.gain, bs.fit.gain_se));
+  p.evidence.push_back(fmt::format("steer ratio with l = {:.2f} m: {:.1f} if {}, {:.1f} if {} → {} (posterior {}; DBC says '{}')", l,
+                                   units[0].to_si / (std::fabs(bs.fit.gain) * l), units[0].name,
+                                   units[1].to_si / (std::fabs(bs.fit.gain) * l), units[1].name, p.unit, Pct(p_unit),
+                                   bs.s->unit));
+  p.evidence.push_back(fmt::format("sign of g {} against the ISO yaw rate → sign {:+d}", rel > 0 ? "+" : "−", rel));
+  if (!bs.s->pair_evidence.empty()) {
+    double single = NAN;  // the same fit with the first signal alone
+    for (const auto& [src, fit] : steer_fits)
+      if (src->terms.size() == 1 && src->terms[0] == bs.s->terms[0]) single = fit.corr;
+    p.evidence.push_back(std::isfinite(single) ? fmt::format("{}: corr {:+.3f} against {:+.3f} for {} alone", bs.s->pair_evidence,
+                                                             bs.fit.corr, single, p.message + "." + p.signal)
+                                               : bs.s->pair_evidence);
+  }
+  if (is < 10.0 || is > 25.0) p.evidence.push_back(fmt::format("steer ratio {:.1f} outside 10..25: check the unit", is));
+}
+
+void ProposeLongitudinal(const BusData& data, Grid& grid, const std::vector<double>& v_si, const std::vector<Source>& lon,
+                         InitResult& result) {
+  RoleProposal& px = RoleOf(result, Role::kLongitudinalAcceleration);
+  if (v_si.empty() || lon.empty()) {
+    if (px.reason.empty()) {
+      px.reason = lon.empty() ? "no varying signal named like a longitudinal acceleration (accel_x/long/laengs)"
+                              : "needs the speed confirmed first";
+    }
+    return;
+  }
+  const size_t h = 5;  // +-0.25 s central difference
+  std::vector<double> dv(v_si.size(), NAN);
+  for (size_t i = h; i + h < v_si.size(); ++i)
+    if (v_si[i] > 2.0) dv[i] = (v_si[i + h] - v_si[i - h]) * kGrid_hz / static_cast<double>(2 * h);
+  const Source* bx = nullptr;
+  Fit fx;
+  for (const auto& s : lon) {
+    const Fit f = LinearFit(dv, grid.Of(s));
+    if (f.n >= 100 && (bx == nullptr || std::fabs(f.corr) > std::fabs(fx.corr))) bx = &s, fx = f;
+  }
+  if (!(bx != nullptr && std::fabs(fx.corr) >= 0.5)) {
+    px.reason = bx == nullptr ? "no candidate with enough driving" : fmt::format("best candidate {} does not follow dv/dt (corr {:+.2f})", bx->expression, fx.corr);
+    return;
+  }
+  const auto& units = AccelUnits();
+  const auto prior = UnitPrior(units, bx->unit);
+  std::vector<double> w(units.size());
+  double total = 0;
+  for (size_t i = 0; i < units.size(); ++i) total += w[i] = prior[i] * Gauss(std::log(std::fabs(fx.gain) * units[i].to_si) / 0.2);
+  const size_t bu = static_cast<size_t>(std::max_element(w.begin(), w.end()) - w.begin());
+  px.found = true;
+  SetSource(px, *bx, data);
+  px.unit = units[bu].name;
+  px.sign = fx.gain > 0 ? 1 : -1;
+  px.confidence = std::min(std::fabs(fx.corr), total > 0 ? w[bu] / total : 0);
+  px.evidence.push_back(fmt::format("a_x = k dv/dt over {} samples: corr {:+.3f}, k = {:.4g} (1 if m/s^2, 0.102 if g) → {} sign {:+d}",
+                                    fx.n, fx.corr, fx.gain, px.unit, px.sign));
 }
 
 }  // namespace ndsid::desk::init_detail

@@ -88,9 +88,8 @@ std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in
       << "  outputs: [a_y, yaw_rate]    # the yaw rate fitted as a second output (docs/two-outputs.md)\n";
   }
   y
-    << "\n# identification: the parameter box is left at its defaults (docs/configuration.md); set\n"
-    << "# vehicle.wheelbase_m and vehicle.mass_kg above from the data sheet, and narrow the box\n"
-    << "# (identification.parameters) when the car is far from a C-Max-class car.\n"
+    << "\n# identification: the parameter box is this car's physical box, from vehicle.wheelbase_m and\n"
+    << "# vehicle.mass_kg (and the axle loads where given; docs/configuration.md, \"The parameter box\").\n"
     << "\nstate_dir: out/state          # learned state (systemd: /var/lib/ndsid)\n"
     << "report_dir: out/report        # reports of the ndsid commands (relative to this file)\n";
   return y.str();

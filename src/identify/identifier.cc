@@ -17,6 +17,7 @@
 
 #include "active_set.h"
 #include "chunk_cost.h"
+#include "half_estimates.h"
 #include "parallel.h"
 #include "quadratic_prior.h"
 
@@ -241,6 +242,23 @@ double AddSeriesSums(const std::vector<std::vector<double>>& series, std::vector
 // sigma^2 tau of pooled autocorrelation sums over n residuals (acf[0] is their sum of squares).
 double LevelOfSums(const std::vector<double>& acf, double n) {
   return n > 0 && !acf.empty() ? acf[0] / n * AutocorrelationTimeFromSums(acf) : 0.0;
+}
+
+// The white part of residual series divided by `weight` (unweighted): sqrt(sum (e_k - e_k-1)^2 /
+// 2n) within each series; -1 without pairs.
+double SeriesFloor(const std::vector<std::vector<double>>& series, double weight) {
+  double d2 = 0;
+  size_t n = 0;
+  for (const auto& e : series) {
+    for (size_t k = 1; k < e.size(); ++k) d2 += (e[k] - e[k - 1]) * (e[k] - e[k - 1]);
+    n += e.size() > 1 ? e.size() - 1 : 0;
+  }
+  return n && weight > 0 ? std::sqrt(d2 / (2.0 * static_cast<double>(n))) / weight : -1.0;
+}
+// The same from pooled lag sums (acf[0] = sum e^2, acf[1] = sum e_k e_k-1) over n residuals.
+double SumsFloor(const std::vector<double>& acf, double n, double weight) {
+  if (acf.size() < 2 || !(n > 0) || !(weight > 0)) return -1.0;
+  return std::sqrt(std::max(0.0, acf[0] - acf[1]) / n) / weight;
 }
 
 }  // namespace
@@ -1353,6 +1371,19 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   double rss = 0, rss_a = 0, rss_r = 0;  // weighted (all), unweighted per output
   std::vector<std::vector<double>> series_a, series_r;
   const bool keep = update && update->keep;
+  // The two halves of the window (alternate training drives, in drive order) for the checks of
+  // the fit (half_estimates.h): each chunk's moments at the estimate go to its drive's half.
+  std::map<int64_t, int> half_of_drive;
+  {
+    std::set<int64_t> ids;
+    for (const stats::Segment* seg : training)
+      if (seg) ids.insert(seg->drive_id);
+    int k = 0;
+    for (int64_t id : ids) half_of_drive[id] = k++ % 2;
+  }
+  HalfMoments halves[2];
+  for (HalfMoments& h : halves) h.Init(np);
+  for (const auto& [id, h] : half_of_drive) ++halves[h].drives;
   std::vector<LinearizedChunk> simulated_lin(keep ? costs.size() : 0);
   // Each chunk's residuals, J'J and score are computed on config_.threads threads, then added up
   // in chunk order (the same sums for any number of threads).
@@ -1384,6 +1415,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     std::vector<double>& e = at[ci].e;
     Eigen::Map<const Eigen::VectorXd> ev(e.data(), static_cast<long>(e.size()));
     jtj += at[ci].jtj;
+    halves[half_of_drive[chunk_segment[ci]->drive_id]].AddChunk(at[ci].jtj, at[ci].score);
     chunk_scores.push_back(std::move(at[ci].score));
     rss += ev.squaredNorm();
     const auto split = e.begin() + static_cast<long>(n_a[ci]);
@@ -1412,6 +1444,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
         const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
         const Eigen::VectorXd score = Eigen::Map<const Eigen::VectorXd>(c.score.data(), np) + hc * d;
         jtj += hc;
+        halves[half_of_drive[ps.seg->drive_id]].AddChunk(hc, score);
         chunk_scores.push_back(score);
         rss += std::max(0.0, c.rss + 2 * Eigen::Map<const Eigen::VectorXd>(c.score.data(), np).dot(d) + d.dot(hc * d));
         rss_a += c.rss_a_y;
@@ -1448,6 +1481,13 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     spdlog::debug("two outputs: fitted with the weight ratio yaw rate / a_y {:.4g}{}; the noise levels at the solution give {:.4g}",
                   weights->yaw_rate / weights->a_y, prior ? " (the prior's)" : "",
                   std::sqrt(r.noise_level_a_y / r.noise_level_yaw_rate));
+  }
+  if (prior) {
+    r.floor_a_y_mps2 = SumsFloor(acf_a, static_cast<double>(n_res_a), weights->a_y);
+    if (two_outputs) r.floor_yaw_radps = SumsFloor(acf_r, static_cast<double>(n_res - n_res_a), weights->yaw_rate);
+  } else {
+    r.floor_a_y_mps2 = SeriesFloor(series_a, two_outputs ? weights->a_y : 1.0);
+    if (two_outputs) r.floor_yaw_radps = SeriesFloor(series_r, weights->yaw_rate);
   }
   if (!std::isfinite(r.rmse_train_mps2)) {
     r.reason = "non-finite residuals at the solution";
@@ -1540,6 +1580,68 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   r.eg_se_rad_per_mps2 = std::sqrt(std::max(0.0, eg_grad.dot(cov * eg_grad)));
   r.eg_deg_per_g = model::EgToDegPerG(r.eg_rad_per_mps2);
   r.eg_se_deg_per_g = model::EgToDegPerG(r.eg_se_rad_per_mps2);
+  // The box's pull on EG (the checks of the fit): the Newton step from the estimate with every
+  // bound released, -(J'J + priors)^-1 g (g the gradient there, the data's scores and the priors'
+  // pull: at an interior optimum 0 but for the parameters the box holds), and EG's move along it,
+  // in total and for each parameter released alone.
+  {
+    Eigen::VectorXd grad = Eigen::VectorXd::Zero(np);
+    for (const Eigen::VectorXd& sc : chunk_scores) grad += sc;
+    Eigen::MatrixXd hp = Eigen::MatrixXd::Zero(np, np);
+    std::vector<double> jrow(static_cast<size_t>(np));
+    for (const auto& pc : priors) {
+      double res = 0;
+      const double* pp[] = {theta.data()};
+      double* jj[] = {jrow.data()};
+      pc->Evaluate(pp, &res, jj);
+      const Eigen::Map<const Eigen::VectorXd> jv(jrow.data(), np);
+      grad += jv * res;
+      hp += jv * jv.transpose();
+    }
+    Eigen::MatrixXd hf(nf, nf);
+    Eigen::VectorXd gf(nf);
+    for (int a = 0; a < nf; ++a) {
+      gf[a] = grad[free[a]];
+      for (int b = 0; b < nf; ++b) hf(a, b) = jtj_f(a, b) + hp(free[a], free[b]);
+    }
+    const Eigen::MatrixXd hinv = hf.completeOrthogonalDecomposition().pseudoInverse();
+    const Eigen::VectorXd v = hinv * eg_grad;  // EG's move per unit of -gradient
+    r.eg_bound_shift_rad_per_mps2 = -v.dot(gf);
+    for (int a = 0; a < nf; ++a) {
+      ParameterEstimate& pe = free[a] < model::kNumParams ? r.params[free[a]] : r.effect_params[free[a] - model::kNumParams];
+      if (pe.at_bound) pe.eg_release_shift_rad_per_mps2 = -v[a] * gf[a];
+    }
+  }
+  // Each parameter's correlation with EG (the checks of the fit: a bound that moves EG).
+  {
+    const Eigen::VectorXd cg = cov * eg_grad;
+    const double var_eg = eg_grad.dot(cg);
+    for (int a = 0; a < nf; ++a) {
+      ParameterEstimate& pe = free[a] < model::kNumParams ? r.params[free[a]] : r.effect_params[free[a] - model::kNumParams];
+      const double d = std::sqrt(std::max(0.0, cov(a, a)) * std::max(0.0, var_eg));
+      pe.eg_correlation = d > 0 ? cg[a] / d : 0.0;
+    }
+  }
+  // The halves (alternate training drives): their EGs for the checks of the fit, and sigma(EG)
+  // widened where they disagree beyond kHalvesCoverZ combined sigma.
+  r.eg_se_fit_rad_per_mps2 = r.eg_se_rad_per_mps2;
+  if (halves[0].drives > 0 && halves[1].drives > 0) {
+    HalvesContext hc;
+    hc.theta = theta;
+    hc.scale = scale;
+    for (int i : free)
+      if (!AtBound(theta[i] * scale[i], bounds[i].lower, bounds[i].upper)) hc.free.push_back(i);
+    hc.prior_info = Eigen::MatrixXd::Zero(np, np);
+    for (const auto& pc : priors) hc.prior_info(pc->index(), pc->index()) += pc->information_theta();
+    hc.noise_level = sigma2 * tau;
+    hc.wheelbase_m = wheelbase_m_;
+    r.halves = EstimateHalves(halves[0], halves[1], hc);
+    r.eg_se_rad_per_mps2 = HonestSigma(r.eg_se_fit_rad_per_mps2, r.halves->first, r.halves->second);
+    r.eg_se_deg_per_g = model::EgToDegPerG(r.eg_se_rad_per_mps2);
+    if (r.eg_se_rad_per_mps2 > r.eg_se_fit_rad_per_mps2)
+      r.se_method += " x" + std::to_string(r.eg_se_rad_per_mps2 / r.eg_se_fit_rad_per_mps2).substr(0, 4) +
+                     " (the halves' disagreement)";
+  }
 
   // Identifiability: singular values of the column-scaled Jacobian over the free parameters.
   {

@@ -9,8 +9,26 @@ namespace {
 constexpr size_t kMaxEffectParams = 256;
 constexpr size_t kMaxListed = 1'000'000;
 
+nlohmann::json HalfJson(const HalfEstimate& h) {
+  return {{"valid", h.valid}, {"reason", h.reason}, {"eg_rad_per_mps2", h.eg_rad_per_mps2},
+          {"eg_se_rad_per_mps2", h.eg_se_rad_per_mps2}, {"drives", h.drives}, {"chunks", h.chunks}};
+}
+
+HalfEstimate HalfFromJson(const JsonIn& in) {
+  HalfEstimate h;
+  h.valid = in.Bool("valid");
+  h.reason = in.String("reason");
+  h.eg_rad_per_mps2 = in.Number("eg_rad_per_mps2");
+  h.eg_se_rad_per_mps2 = in.Number("eg_se_rad_per_mps2");
+  h.drives = static_cast<int>(in.Int64("drives"));
+  h.chunks = in.UInt64("chunks");
+  return h;
+}
+
 nlohmann::json ParamJson(const ParameterEstimate& p) {
-  return {{"name", p.name}, {"value", p.value}, {"se", p.se}, {"unit", p.unit}, {"fixed", p.fixed}, {"at_bound", p.at_bound}};
+  return {{"name", p.name},         {"value", p.value},       {"se", p.se},
+          {"unit", p.unit},         {"fixed", p.fixed},       {"at_bound", p.at_bound},
+          {"eg_correlation", p.eg_correlation}, {"eg_release_shift_rad_per_mps2", p.eg_release_shift_rad_per_mps2}};
 }
 
 ParameterEstimate ParamFromJson(const JsonIn& in) {
@@ -21,6 +39,8 @@ ParameterEstimate ParamFromJson(const JsonIn& in) {
   p.se = in.Number("se");
   p.fixed = in.Bool("fixed");
   p.at_bound = in.Bool("at_bound");
+  if (in.Has("eg_correlation")) p.eg_correlation = in.Number("eg_correlation");  // older states lack these
+  if (in.Has("eg_release_shift_rad_per_mps2")) p.eg_release_shift_rad_per_mps2 = in.Number("eg_release_shift_rad_per_mps2");
   return p;
 }
 
@@ -36,6 +56,11 @@ nlohmann::json ResultToJson(const IdentificationResult& f) {
   j["eg_deg_per_g"] = f.eg_deg_per_g;
   j["eg_se_deg_per_g"] = f.eg_se_deg_per_g;
   j["se_method"] = f.se_method;
+  j["eg_se_fit_rad_per_mps2"] = f.eg_se_fit_rad_per_mps2;  // before the halves widened it
+  j["eg_bound_shift_rad_per_mps2"] = f.eg_bound_shift_rad_per_mps2;
+  if (f.halves) j["halves"] = {HalfJson(f.halves->first), HalfJson(f.halves->second)};
+  j["floor_a_y_mps2"] = f.floor_a_y_mps2;
+  j["floor_yaw_radps"] = f.floor_yaw_radps;
   j["parameters"] = nlohmann::json::array();
   for (int i = 0; i < model::kNumParams; ++i) {  // the base parameters under their fixed names
     ParameterEstimate p = f.params[i];
@@ -93,6 +118,16 @@ IdentificationResult ResultFromJson(const JsonIn& in) {
   f.eg_deg_per_g = in.Number("eg_deg_per_g");
   f.eg_se_deg_per_g = in.Number("eg_se_deg_per_g");
   f.se_method = in.String("se_method");
+  // The checks' facts (absent in states written before them).
+  if (in.Has("eg_se_fit_rad_per_mps2")) f.eg_se_fit_rad_per_mps2 = in.Number("eg_se_fit_rad_per_mps2");
+  if (in.Has("eg_bound_shift_rad_per_mps2")) f.eg_bound_shift_rad_per_mps2 = in.Number("eg_bound_shift_rad_per_mps2");
+  if (in.Has("halves")) {
+    const JsonIn h = in.At("halves");
+    if (h.Size(2) != 2) h.Fail("not two halves");
+    f.halves = std::make_pair(HalfFromJson(h.At(size_t{0})), HalfFromJson(h.At(size_t{1})));
+  }
+  if (in.Has("floor_a_y_mps2")) f.floor_a_y_mps2 = in.Number("floor_a_y_mps2");
+  if (in.Has("floor_yaw_radps")) f.floor_yaw_radps = in.Number("floor_yaw_radps");
   const JsonIn ps = in.At("parameters");
   const size_t n = ps.Size(model::kNumParams + kMaxEffectParams);
   if (n < static_cast<size_t>(model::kNumParams)) ps.Fail("fewer than the " + std::to_string(model::kNumParams) + " base parameters");

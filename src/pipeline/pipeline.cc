@@ -1,5 +1,7 @@
 #include "ndsid/pipeline/pipeline.h"
 
+#include "fit_facts.h"
+
 #include <spdlog/spdlog.h>
 
 #include "ndsid/adequacy/prior_check.h"
@@ -186,6 +188,7 @@ WindowSnapshot Pipeline::Snapshot() const {
 }
 
 std::optional<std::vector<double>> Pipeline::WarmStart() const {
+  if (last_fit_values_) return last_fit_values_;
   if (last_ && last_->fit.valid) return last_->fit.ValuesFor(identifier_.spec());  // restored: maybe another model
   const bool yaw = config_.role(config::Role::kYawRate) != nullptr;
   const auto ss = accumulator_.steady_state().Estimate(config_.vehicle.wheelbase_m, yaw);
@@ -265,6 +268,7 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   linearized_ = std::move(fit.linearized);
   fit.linearized.reset();
   e.fit = std::move(fit);
+  if (e.fit.valid) last_fit_values_ = e.fit.ValuesFor(identifier_.spec());  // a usable fit, before the checks
   // Plausibility (docs/monitoring.md): a fit of data that break the kinematics, or an EG that is
   // unphysical or undetermined, is published as not valid, with the checks' words as reason.
   e.plausibility = data_checks ? *data_checks : CheckData(snap);
@@ -279,6 +283,7 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
       facts.free_params_at_bound += p.at_bound ? 1 : 0;
     }
     adequacy::CheckEstimate(facts, config_.plausibility, e.plausibility);
+    adequacy::CheckFit(FitFactsOf(e.fit, snap), config_.plausibility, e.plausibility);
     for (const auto& d : e.plausibility.drives) {  // each failing drive once
       for (const auto& c : d.checks) {
         if (c.verdict == adequacy::Verdict::kFailed && implausible_drives_reported_.insert(d.drive_id).second) {
@@ -304,6 +309,10 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   } else {
     // Keep the last good estimate; report this one as not valid with its reason.
     e.adequacy = adequacy_.last();
+    if (e.adequacy.explanation.empty()) {
+      e.adequacy.gated_hours = snap.gated_hours;
+      e.adequacy.explanation = "no valid estimate yet: adequacy is judged on valid estimates only";
+    }
     spdlog::warn("identification not valid: {}", e.fit.reason);
     if (!last_) last_ = e;
   }

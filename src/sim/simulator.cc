@@ -55,6 +55,183 @@ PathState PathDerivative(const Road& road, const PathState& p, double v, double 
 
 enum class Phase { kKeyOn, kReverse, kReverseHold, kDrive, kStopped, kEnd };
 
+// What one drive's loop reads and never changes.
+struct DriveContext {
+  const DriverProfile& driver;
+  const DrivePlan& plan;
+  const Road& road;
+  const VehicleTruth& truth;
+  const std::vector<double>& v_plan;  // the driver's planned speed over s, on the road's grid [m/s]
+  double dt;                          // integration step [s]
+  double l;                           // wheelbase [m]
+  double eg_belief;                   // the driver's internal model of the car: EG ...
+  double is_belief;                   // ... and the steering ratio, off by a few per cent
+};
+
+// The loop's state, carried from one integration step to the next.
+struct DriveState {
+  TruthState x;                      // the vehicle's state (VehicleTruth)
+  PathState path;                    // its place on the road
+  double v = 0.0;                    // speed [m/s], negative when reversing
+  double a_x = 0.0;                  // longitudinal acceleration [m/s^2]
+  double steer = 0.0;                // steering-wheel angle [rad]
+  double s_release = -1.0;           // the last stop's place: the speed plan resumes after it [m]
+  double stop_timer = 0.0;           // time left standing at a stop or after reversing [s]
+  double reverse_done = 0.0;         // distance reversed so far [m]
+  size_t next_stop = 0;              // the road's next stop
+  Phase phase = Phase::kKeyOn;
+  double prev_r_kin = 0.0;           // the kinematic yaw rate one step before [rad/s]
+  double km_by_type[3] = {0, 0, 0};  // distance driven per road type [km]
+};
+
+// The planned speed at s (linear between the grid's points).
+double PlannedSpeed(const std::vector<double>& v_plan, double s) {
+  const double x = std::clamp(s / Road::kGridStep_m, 0.0, static_cast<double>(v_plan.size() - 1));
+  const size_t i = std::min(static_cast<size_t>(x), v_plan.size() - 2);
+  return v_plan[i] + (x - static_cast<double>(i)) * (v_plan[i + 1] - v_plan[i]);
+}
+
+// The yaw acceleration at step k: the dynamic model's, blended with the kinematic yaw rate's
+// difference quotient at low speed.
+double YawAcceleration(const DriveContext& c, DriveState& st, const TruthOutputs& o0, int64_t k) {
+  const double r_kin = c.truth.KinematicYawRate(st.steer, st.v);
+  const double r_dot = o0.blend * o0.r_dot_dyn + (1.0 - o0.blend) * (k == 0 ? 0.0 : (r_kin - st.prev_r_kin) / c.dt);
+  st.prev_r_kin = r_kin;
+  return r_dot;
+}
+
+// The driver's steering (zero-order hold over the step): curvature feed-forward with preview and
+// lane-keeping feedback while driving; the reversing lock; hands still otherwise. sn: noise [rad].
+double SteeringCommand(const DriveContext& c, const DriveState& st, double vf, double sn) {
+  const DriverProfile& driver = c.driver;
+  const Road& road = c.road;
+  if (st.phase == Phase::kDrive || st.phase == Phase::kStopped) {
+    const double s_ff = st.path.s + vf * driver.preview_s;
+    const double kappa_ff = road.Curvature(s_ff) + road.LaneOffsetCurvature(s_ff);
+    const double la = std::max(driver.lookahead_min_m, vf * driver.lookahead_s);
+    const double e_err = st.path.e - road.LaneOffset(st.path.s);
+    const double psi_err = st.path.psi - std::atan(road.LaneOffsetSlope(st.path.s));
+    const double kappa_fb = -2.0 * (e_err + la * psi_err) / (la * la);
+    return c.is_belief * (c.l + c.eg_belief * vf * vf) * (kappa_ff + kappa_fb) + sn;
+  }
+  if (st.phase == Phase::kReverse) return c.plan.reverse_steer_rad;
+  // hands still (key-on), or unwinding after reversing:
+  return st.phase == Phase::kReverseHold ? 0.0 : st.steer;
+}
+
+// The drive's phases (key-on, reversing out, holding, driving the speed plan, standing at a stop)
+// and the acceleration command of each; moves st.phase, and snaps v to 0 where the car stops.
+// t: time [s]; vn: the driver's speed noise (relative).
+double AccelerationCommand(const DriveContext& c, DriveState& st, double t, double vn) {
+  const DriverProfile& driver = c.driver;
+  const Road& road = c.road;
+  const double dt = c.dt;
+  double a_cmd = 0.0;
+  if (st.phase == Phase::kKeyOn) {
+    a_cmd = 0.0;
+    if (t >= c.plan.key_on_s) st.phase = c.plan.reverse_out ? Phase::kReverse : Phase::kDrive;
+  } else if (st.phase == Phase::kReverse) {
+    const double remaining = c.plan.reverse_m - st.reverse_done;
+    const double v_target = -std::min(1.2, std::sqrt(2.0 * 0.6 * std::max(remaining, 0.0)));
+    a_cmd = std::clamp((v_target - st.v) / 0.4, -1.0, 1.0);
+    if (remaining < 0.02 && std::fabs(st.v) < 0.05) {
+      st.phase = Phase::kReverseHold;
+      st.stop_timer = 2.5;
+      st.v = 0.0;
+      st.a_x = 0.0;
+    }
+  } else if (st.phase == Phase::kReverseHold) {
+    st.stop_timer -= dt;
+    if (st.stop_timer <= 0.0) st.phase = Phase::kDrive;
+  } else if (st.phase == Phase::kStopped) {
+    a_cmd = 0.0;
+    st.stop_timer -= dt;
+    if (st.stop_timer <= 0.0) st.phase = st.next_stop >= road.stops().size() ? Phase::kEnd : Phase::kDrive;
+  } else {  // kDrive: track the speed plan, stop at the stops
+    const double sp = std::max(st.path.s, st.s_release + Road::kGridStep_m);
+    const double ds = Road::kGridStep_m;
+    const double vp0 = PlannedSpeed(c.v_plan, sp) * (1.0 + vn), vp1 = PlannedSpeed(c.v_plan, sp + ds) * (1.0 + vn);
+    const double a_ff = (vp1 * vp1 - vp0 * vp0) / (2.0 * ds);
+    a_cmd = std::clamp(a_ff + 0.6 * (vp0 - st.v), -2.5 * driver.decel_mps2, 1.3 * driver.accel_mps2);
+    if (st.next_stop < road.stops().size()) {
+      const double d = road.stops()[st.next_stop].s_m - st.path.s;
+      if (d < 4.0) {
+        a_cmd = std::min(a_cmd, -st.v * st.v / (2.0 * std::max(d - 0.3, 0.05)));
+        if (st.v < 0.08) {
+          st.phase = Phase::kStopped;
+          st.stop_timer = road.stops()[st.next_stop].dwell_s;
+          st.s_release = road.stops()[st.next_stop].s_m;
+          ++st.next_stop;
+          st.v = 0.0;
+          st.a_x = 0.0;
+          a_cmd = 0.0;
+        }
+      }
+    }
+  }
+  return a_cmd;
+}
+
+// The acceleration follows the command with a 0.3 s lag (at once on the final approach to a stop);
+// none while standing.
+void FollowAcceleration(const DriveContext& c, DriveState& st, double a_cmd) {
+  const Road& road = c.road;
+  const bool final_approach =
+      st.phase == Phase::kDrive && st.next_stop < road.stops().size() && road.stops()[st.next_stop].s_m - st.path.s < 4.0;
+  st.a_x = final_approach ? a_cmd : st.a_x + (a_cmd - st.a_x) * (1.0 - std::exp(-c.dt / 0.3));
+  if (st.phase == Phase::kStopped || st.phase == Phase::kKeyOn || st.phase == Phase::kReverseHold) st.a_x = 0.0;
+}
+
+// The sensors' sample at time t of the state at the step's start (u0, o0).
+void RecordSample(const DriveContext& c, const DriveState& st, double t, const TruthInputs& u0, const TruthOutputs& o0,
+                  double r_dot, double bank0, SensorModel& sensors, DriveSeries& out) {
+  const Road& road = c.road;
+  const Phase phase = st.phase;
+  SampleTruth s{t, st.steer, u0.speed_mps, o0.a_y, o0.r, r_dot, o0.beta, st.a_x, o0.roll, bank0,
+                road.Curvature(st.path.s), st.path.s, st.path.e, road.LaneOffset(st.path.s), st.path.psi,
+                phase == Phase::kReverse || phase == Phase::kReverseHold};
+  const uint8_t gear = (phase == Phase::kKeyOn || phase == Phase::kEnd ||
+                        (phase == Phase::kStopped && st.next_stop >= road.stops().size()))
+                           ? 0
+                           : s.reverse ? 1 : 3;
+  sensors.Record(s, gear, out);
+}
+
+// Advances the truth by one step: steering lag, speed, vehicle (RK4), path (Heun).
+// u0, o0: the state at the step's start; vf: the speed before the phases moved it, clamped >= 0.
+void AdvanceTruth(const DriveContext& c, DriveState& st, double steer_cmd, const TruthInputs& u0, const TruthOutputs& o0,
+                  bool on_road, double vf, double bank0) {
+  const Road& road = c.road;
+  const double dt = c.dt;
+  const double steer1 = steer_cmd + (st.steer - steer_cmd) * std::exp(-dt / c.driver.neuromuscular_tau_s);
+  double v1 = st.v + st.a_x * dt;
+  if (st.phase == Phase::kDrive && v1 < 0.0) v1 = 0.0;
+  if (st.phase == Phase::kReverse && v1 > 0.0) v1 = 0.0;
+  const double bank1 = on_road ? road.Bank(st.path.s + vf * dt) : bank0;
+  const TruthInputs u1{steer1, v1, bank1};
+  c.truth.Step(st.x, u0, u1, dt);
+  if (on_road) {
+    PathState& path = st.path;
+    const TruthOutputs o1 = c.truth.Outputs(st.x, u1);
+    const PathState k1 = PathDerivative(road, path, st.v, o0.beta, o0.r);
+    const PathState pred{path.s + dt * k1.s, path.e + dt * k1.e, path.psi + dt * k1.psi};
+    const PathState k2 = PathDerivative(road, pred, v1, o1.beta, o1.r);
+    const double ds_step = 0.5 * dt * (k1.s + k2.s);
+    st.km_by_type[static_cast<int>(road.Type(path.s))] += ds_step / 1000.0;
+    path.s += ds_step;
+    path.e += 0.5 * dt * (k1.e + k2.e);
+    path.psi += 0.5 * dt * (k1.psi + k2.psi);
+    // passed a stop without stopping (should not happen with the stop law): count it as done
+    if (st.next_stop < road.stops().size() && path.s > road.stops()[st.next_stop].s_m + 2.0) ++st.next_stop;
+  } else if (st.phase == Phase::kReverse) {
+    st.reverse_done += 0.5 * dt * (std::fabs(st.v) + std::fabs(v1));
+  }
+  st.steer = steer1;
+  st.v = v1;
+}
+
+// One drive: its own random streams (road, driver, sensors, and the gyro's per-drive offset), the
+// truth of its load, then the loop: driver -> phases -> sample -> truth, step by step.
 DriveResult SimulateDrive(const config::SimulationConfig& cfg, const DriverProfile& driver, const DrivePlan& plan,
                           int index, int64_t start_ns, double odometer_km) {
   const double dt = 1.0 / cfg.integration.step_hz;
@@ -80,15 +257,8 @@ DriveResult SimulateDrive(const config::SimulationConfig& cfg, const DriverProfi
 
   const Road road = GenerateRoad(plan.length_m, cfg.road, cfg.effects.superelevation_pct, road_rng);
   const std::vector<double> v_plan = PlanSpeed(road, driver);
-  auto plan_at = [&](double s) {
-    const double x = std::clamp(s / Road::kGridStep_m, 0.0, static_cast<double>(v_plan.size() - 1));
-    const size_t i = std::min(static_cast<size_t>(x), v_plan.size() - 2);
-    return v_plan[i] + (x - static_cast<double>(i)) * (v_plan[i + 1] - v_plan[i]);
-  };
-
-  // The driver's internal model of the car: EG and is off by a few per cent.
-  const double eg_belief = truth.self_steer_gradient() * driver.belief_eg_factor;
-  const double is_belief = p.is * driver.belief_is_factor;
+  const DriveContext ctx{driver, plan, road, truth, v_plan, dt, l,
+                         truth.self_steer_gradient() * driver.belief_eg_factor, p.is * driver.belief_is_factor};
   OrnsteinUhlenbeck steer_noise(driver.steer_noise_rad, driver.steer_noise_tau_s);
   OrnsteinUhlenbeck speed_noise(driver.speed_noise, 20.0);
   steer_noise.Reset(driver_rng);
@@ -103,141 +273,33 @@ DriveResult SimulateDrive(const config::SimulationConfig& cfg, const DriverProfi
   }
   result.gyro_offset_degps = drive_cfg.effects.gyro_offset_degps;
   SensorModel sensors(drive_cfg, dt, sensor_rng);
-  TruthState x;
-  PathState path;
-  double v = 0.0, a_x = 0.0, steer = 0.0, s_release = -1.0, stop_timer = 0.0, reverse_done = 0.0;
-  size_t next_stop = 0;
-  Phase phase = Phase::kKeyOn;
-  double t = 0.0;
-  double prev_r_kin = 0.0;
+  DriveState st;
   const double max_time = 3600.0 * 6.0 + plan.length_m / 2.0;
   DriveSeries& out = result.series;
   out.Reserve(static_cast<size_t>(plan.length_m / 15.0 * kOutputRate_hz) + 1000);
-  double km_by_type[3] = {0, 0, 0};
-  int evasive = road.evasive_count();
 
-  for (int64_t k = 0; phase != Phase::kEnd; ++k) {
-    t = static_cast<double>(k) * dt;
-    const bool on_road = phase != Phase::kReverse && phase != Phase::kReverseHold && phase != Phase::kKeyOn;
-    const double bank0 = road.Bank(path.s);
-    const TruthInputs u0{steer, v, bank0};  // the state at t (the driver below may snap v to 0)
-    const TruthOutputs o0 = truth.Outputs(x, u0);
-    const double r_kin = truth.KinematicYawRate(steer, v);
-    const double r_dot = o0.blend * o0.r_dot_dyn + (1.0 - o0.blend) * (k == 0 ? 0.0 : (r_kin - prev_r_kin) / dt);
-    prev_r_kin = r_kin;
-    sensors.PushSteer(steer);
-
-    // ---- driver (zero-order hold over the step) ----
-    const double vf = std::max(v, 0.0);
-    double steer_cmd = 0.0, a_cmd = 0.0;
+  for (int64_t k = 0; st.phase != Phase::kEnd; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    const bool on_road = st.phase != Phase::kReverse && st.phase != Phase::kReverseHold && st.phase != Phase::kKeyOn;
+    const double bank0 = road.Bank(st.path.s);
+    const TruthInputs u0{st.steer, st.v, bank0};  // the state at t (the phases below may snap v to 0)
+    const TruthOutputs o0 = truth.Outputs(st.x, u0);
+    const double r_dot = YawAcceleration(ctx, st, o0, k);
+    sensors.PushSteer(st.steer);
+    const double vf = std::max(st.v, 0.0);
     const double sn = steer_noise.Step(driver_rng, dt);
     const double vn = speed_noise.Step(driver_rng, dt);
-    if (phase == Phase::kDrive || phase == Phase::kStopped) {
-      const double s_ff = path.s + vf * driver.preview_s;
-      const double kappa_ff = road.Curvature(s_ff) + road.LaneOffsetCurvature(s_ff);
-      const double la = std::max(driver.lookahead_min_m, vf * driver.lookahead_s);
-      const double e_err = path.e - road.LaneOffset(path.s);
-      const double psi_err = path.psi - std::atan(road.LaneOffsetSlope(path.s));
-      const double kappa_fb = -2.0 * (e_err + la * psi_err) / (la * la);
-      steer_cmd = is_belief * (l + eg_belief * vf * vf) * (kappa_ff + kappa_fb) + sn;
-    } else if (phase == Phase::kReverse) {
-      steer_cmd = plan.reverse_steer_rad;
-    } else {
-      steer_cmd = steer;  // hands still (key-on), or unwinding after reversing:
-      if (phase == Phase::kReverseHold) steer_cmd = 0.0;
-    }
-
-    if (phase == Phase::kKeyOn) {
-      a_cmd = 0.0;
-      if (t >= plan.key_on_s) phase = plan.reverse_out ? Phase::kReverse : Phase::kDrive;
-    } else if (phase == Phase::kReverse) {
-      const double remaining = plan.reverse_m - reverse_done;
-      const double v_target = -std::min(1.2, std::sqrt(2.0 * 0.6 * std::max(remaining, 0.0)));
-      a_cmd = std::clamp((v_target - v) / 0.4, -1.0, 1.0);
-      if (remaining < 0.02 && std::fabs(v) < 0.05) {
-        phase = Phase::kReverseHold;
-        stop_timer = 2.5;
-        v = 0.0;
-        a_x = 0.0;
-      }
-    } else if (phase == Phase::kReverseHold) {
-      stop_timer -= dt;
-      if (stop_timer <= 0.0) phase = Phase::kDrive;
-    } else if (phase == Phase::kStopped) {
-      a_cmd = 0.0;
-      stop_timer -= dt;
-      if (stop_timer <= 0.0) phase = next_stop >= road.stops().size() ? Phase::kEnd : Phase::kDrive;
-    } else {  // kDrive: track the speed plan, stop at the stops
-      const double sp = std::max(path.s, s_release + Road::kGridStep_m);
-      const double ds = Road::kGridStep_m;
-      const double vp0 = plan_at(sp) * (1.0 + vn), vp1 = plan_at(sp + ds) * (1.0 + vn);
-      const double a_ff = (vp1 * vp1 - vp0 * vp0) / (2.0 * ds);
-      a_cmd = std::clamp(a_ff + 0.6 * (vp0 - v), -2.5 * driver.decel_mps2, 1.3 * driver.accel_mps2);
-      if (next_stop < road.stops().size()) {
-        const double d = road.stops()[next_stop].s_m - path.s;
-        if (d < 4.0) {
-          a_cmd = std::min(a_cmd, -v * v / (2.0 * std::max(d - 0.3, 0.05)));
-          if (v < 0.08) {
-            phase = Phase::kStopped;
-            stop_timer = road.stops()[next_stop].dwell_s;
-            s_release = road.stops()[next_stop].s_m;
-            ++next_stop;
-            v = 0.0;
-            a_x = 0.0;
-            a_cmd = 0.0;
-          }
-        }
-      }
-    }
-    const bool final_approach =
-        phase == Phase::kDrive && next_stop < road.stops().size() && road.stops()[next_stop].s_m - path.s < 4.0;
-    a_x = final_approach ? a_cmd : a_x + (a_cmd - a_x) * (1.0 - std::exp(-dt / 0.3));
-    if (phase == Phase::kStopped || phase == Phase::kKeyOn || phase == Phase::kReverseHold) a_x = 0.0;
-
-    // ---- record the sample at time t ----
-    if (k % sub == 0) {
-      SampleTruth st{t, steer, u0.speed_mps, o0.a_y, o0.r, r_dot, o0.beta, a_x, o0.roll, bank0,
-                     road.Curvature(path.s), path.s, path.e, road.LaneOffset(path.s), path.psi,
-                     phase == Phase::kReverse || phase == Phase::kReverseHold};
-      const uint8_t gear = (phase == Phase::kKeyOn || phase == Phase::kEnd ||
-                            (phase == Phase::kStopped && next_stop >= road.stops().size()))
-                               ? 0
-                               : st.reverse ? 1 : 3;
-      sensors.Record(st, gear, out);
-    }
-    if (phase == Phase::kEnd || t > max_time) break;
-
-    // ---- advance truth: steering lag, speed, vehicle RK4, path (Heun) ----
-    const double steer1 = steer_cmd + (steer - steer_cmd) * std::exp(-dt / driver.neuromuscular_tau_s);
-    double v1 = v + a_x * dt;
-    if (phase == Phase::kDrive && v1 < 0.0) v1 = 0.0;
-    if (phase == Phase::kReverse && v1 > 0.0) v1 = 0.0;
-    const double bank1 = on_road ? road.Bank(path.s + vf * dt) : bank0;
-    const TruthInputs u1{steer1, v1, bank1};
-    truth.Step(x, u0, u1, dt);
-    if (on_road) {
-      const TruthOutputs o1 = truth.Outputs(x, u1);
-      const PathState k1 = PathDerivative(road, path, v, o0.beta, o0.r);
-      const PathState pred{path.s + dt * k1.s, path.e + dt * k1.e, path.psi + dt * k1.psi};
-      const PathState k2 = PathDerivative(road, pred, v1, o1.beta, o1.r);
-      const double ds_step = 0.5 * dt * (k1.s + k2.s);
-      km_by_type[static_cast<int>(road.Type(path.s))] += ds_step / 1000.0;
-      path.s += ds_step;
-      path.e += 0.5 * dt * (k1.e + k2.e);
-      path.psi += 0.5 * dt * (k1.psi + k2.psi);
-      // passed a stop without stopping (should not happen with the stop law): count it as done
-      if (next_stop < road.stops().size() && path.s > road.stops()[next_stop].s_m + 2.0) ++next_stop;
-    } else if (phase == Phase::kReverse) {
-      reverse_done += 0.5 * dt * (std::fabs(v) + std::fabs(v1));
-    }
-    steer = steer1;
-    v = v1;
+    const double steer_cmd = SteeringCommand(ctx, st, vf, sn);
+    FollowAcceleration(ctx, st, AccelerationCommand(ctx, st, t, vn));
+    if (k % sub == 0) RecordSample(ctx, st, t, u0, o0, r_dot, bank0, sensors, out);
+    if (st.phase == Phase::kEnd || t > max_time) break;
+    AdvanceTruth(ctx, st, steer_cmd, u0, o0, on_road, vf, bank0);
   }
   result.stats = ComputeDriveStats(out);
-  result.stats.urban_km = km_by_type[0];
-  result.stats.rural_km = km_by_type[1];
-  result.stats.motorway_km = km_by_type[2];
-  result.stats.evasive = evasive;
+  result.stats.urban_km = st.km_by_type[0];
+  result.stats.rural_km = st.km_by_type[1];
+  result.stats.motorway_km = st.km_by_type[2];
+  result.stats.evasive = road.evasive_count();
   return result;
 }
 

@@ -78,17 +78,18 @@ TEST(FitChecks, AResidualFarAboveItsFloorIsUnexplainedStructure) {
   EXPECT_EQ(Find(Checked(f), "explained_a_y").verdict, Verdict::kPassed);
 }
 
-TEST(FitChecks, AParameterOnItsBoundFailsOnlyWhenEgDependsOnIt) {
-  FitFacts f = Good();
-  f.at_bound = {{.name = "Jz", .value = 3200, .eg_correlation = 0.05, .in_eg = false}};
+TEST(FitChecks, AParameterOnItsBoundFailsOnlyWhenReleasingItWouldMoveEg) {
+  FitFacts f = Good();  // sigma(EG) 0.01 deg/g
+  f.at_bound = {{.name = "Jz", .value = 3200, .eg_correlation = 0.05, .eg_shift_deg_per_g = 0.001}};
+  f.eg_bound_shift_deg_per_g = 0.001;  // 0.1 sigma: the bound holds Jz, not EG
   EXPECT_EQ(Find(Checked(f), "bounds").verdict, Verdict::kPassed);
-  f.at_bound.push_back({.name = "is", .value = 15.3, .eg_correlation = -0.6, .in_eg = false});
+  f.at_bound.push_back({.name = "ch", .value = 135000, .eg_correlation = -0.3, .eg_shift_deg_per_g = -0.05});
+  f.eg_bound_shift_deg_per_g = -0.049;  // 4.9 sigma
   const Check& c = Find(Checked(f), "bounds");
   EXPECT_EQ(c.verdict, Verdict::kFailed);
-  EXPECT_NE(c.message.find("is = 15.3"), std::string::npos) << c.message;
-  FitFacts g = Good();
-  g.at_bound = {{.name = "ch", .value = 135000, .eg_correlation = 0.0, .in_eg = true}};  // in EG's formula
-  EXPECT_EQ(Find(Checked(g), "bounds").verdict, Verdict::kFailed);
+  EXPECT_NEAR(c.value, -4.9, 1e-9);
+  EXPECT_NE(c.message.find("ch = 1.35e+05 (EG -0.050 deg/g if released"), std::string::npos) << c.message;
+  EXPECT_NE(c.message.find("the box, not the data, sets EG"), std::string::npos) << c.message;
 }
 
 TEST(FitChecks, DynamicEgContradictingTheSteadyStateIsNotValid) {

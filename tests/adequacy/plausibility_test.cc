@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <algorithm>
 #include <random>
 
 namespace ndsid::adequacy {
@@ -181,6 +182,82 @@ TEST(Plausibility, SpeedAgainstWheelSpeeds) {
   PlausibilityReport none;
   CheckWheelSpeed({}, q, none);
   EXPECT_TRUE(none.checks.empty());
+}
+
+}  // namespace
+}  // namespace ndsid::adequacy
+
+namespace ndsid::adequacy {
+namespace {
+
+// Race-track-like driving at 30 m/s: turns of +-6 m/s^2 (cut by the gate's linear range,
+// |a_y| < 4) and short holds at +-3 m/s^2, linked by quick transients in which a_y leads v r by
+// 0.15 s (a_y = v (r + beta'): beta' there). The gate keeps mostly the transients, as on a race
+// car's track outing: all kept samples give a gain of about 0.68. Split into segments where
+// |a_y| >= 4 cut them, as the gate does.
+std::vector<stats::Segment> TrackDrive(uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0, 1);
+  std::vector<stats::Segment> out;
+  stats::Segment seg;
+  const double dt = 0.02, v = 30, lead = 0.15;
+  auto r_of = [](double t) {  // hold 0.9 s, smooth transition 0.6 s, through six levels [rad/s]
+    constexpr double kLevels[] = {0.2, -0.2, 0.1, 0.2, -0.2, -0.1};
+    const double per = 1.5;
+    const long k = static_cast<long>(std::floor(t / per));
+    const double a = kLevels[k % 6], b = kLevels[(k + 1) % 6];
+    double w = std::clamp((t - k * per - 0.9) / 0.6, 0.0, 1.0);
+    w = w * w * (3 - 2 * w);
+    return a + (b - a) * w;
+  };
+  auto close = [&] {
+    if (seg.samples.size() > 10) out.push_back(seg);
+    seg = stats::Segment{};
+  };
+  for (int i = 0; i < 60000; ++i) {
+    const double t = i * dt;
+    const double r = r_of(t), ay = v * r_of(t + lead) + 0.05 * noise(rng);
+    if (std::abs(ay) >= 4) {
+      close();
+      continue;
+    }
+    if (seg.samples.empty()) {
+      seg.drive_id = 0;
+      seg.t0_ns = static_cast<int64_t>(t * 1e9);
+      seg.dt_s = dt;
+      seg.has_yaw_rate = true;
+    }
+    seg.samples.push_back({.steer_rad = static_cast<float>(15 * 2.7 * r / v * 1.3), .speed_mps = static_cast<float>(v),
+                           .lat_accel_mps2 = static_cast<float>(ay), .yaw_rate_radps = static_cast<float>(r + 0.002 * noise(rng)),
+                           .long_accel_mps2 = 0});
+  }
+  close();
+  return out;
+}
+
+// Catches: the kinematics check failing good data whose transients dominate (beta' makes a_y lead
+// v r there), as it did on a race car's track outing.
+TEST(Plausibility, KinematicsJudgesQuasiSteadyTurningOnly) {
+  for (uint64_t seed : {1, 2, 3}) {
+    const std::vector<stats::Segment> segs = TrackDrive(seed);
+    std::vector<const stats::Segment*> ptrs;
+    for (const auto& s : segs) ptrs.push_back(&s);
+    const PlausibilityReport r = CheckData(ptrs, config::PlausibilityConfig{});
+    const Check& k = Find(r, "kinematics");
+    EXPECT_EQ(k.verdict, Verdict::kPassed) << k.message;
+    EXPECT_NEAR(k.value, 1.0, 0.05) << k.message;
+  }
+}
+
+// Catches: a 20 % sensor scale blamed on a unit (no unit is 0.8 off).
+TEST(Plausibility, ASensorScaleIsNamedAsSuchWithItsSize) {
+  const PlausibilityReport r = CheckDrives({.ay_scale = 0.79}, 4);
+  const Check& k = Find(r, "kinematics");
+  EXPECT_EQ(k.verdict, Verdict::kFailed);
+  EXPECT_NEAR(k.value, 0.79, 0.03);
+  EXPECT_NE(k.message.find("a sensor scale error"), std::string::npos) << k.message;
+  EXPECT_NE(k.message.find("-21 %"), std::string::npos) << k.message;
+  EXPECT_NE(k.message.find("+-"), std::string::npos) << k.message;  // the gain's standard error
 }
 
 }  // namespace

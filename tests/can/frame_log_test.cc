@@ -62,7 +62,6 @@ TEST(FrameLog, UnsupportedFilesSayWhatTheyLookLikeAndWhatToDo) {
       {std::string("\x01\x02\x00\x00\x07\x00\xff\xfe", 8) + std::string(100, '\0'), "unknown binary"},
       {";$FILEVERSION=1.1\n;$STARTTIME=45000.1\n", "PEAK PCAN trace"},
       {"MDF     3.30    TGT 15.0" + std::string(40, '\0'), "MDF 3"},
-      {"UnFinMF 4.10    " + std::string(48, '\0'), "unfinalised MDF"},
       {"  can0  123   [4]  DE AD BE EF\n  can0  124   [1]  00\n", "candump screen output"},
       {"hello world\nthis is prose\n", "unknown format"},
   };
@@ -147,6 +146,25 @@ TEST(AscReader, DecimalBaseAndRelativeTimestamps) {
   EXPECT_EQ(frames[0].data[0], 222);
   EXPECT_EQ(frames[1].id, 100u);
   EXPECT_TRUE(frames[1].extended());
+}
+
+// python-can's ASCWriter writes a classic message given 64 bytes as "d 40" (the length in hex)
+// with all 64 bytes, and its reader takes the first 8. Catches: "bad DLC" for a DLC above 15,
+// more than 8 bytes in a classic frame.
+TEST(AscReader, ClassicFrameWithMoreThanEightBytesReadsTheFirstEight) {
+  TempDir dir;
+  std::string line = " 0.000000 1  123x            Rx   d 40";
+  for (int i = 0; i < 64; ++i) line += " " + std::string(1, "0123456789ABCDEF"[i / 16]) + "0123456789ABCDEF"[i % 16];
+  WriteFile(dir.File("s.asc"), "base hex  timestamps absolute\nBegin Triggerblock Sat Sep 30 15:06:13.191 2017\n" + line +
+                                   "\n 0.000001 1  124 Rx d F 01 02 03 04 05 06 07 08\n");
+  auto log = OpenFrameLog(dir.File("s.asc"));
+  const auto frames = ReadAll(*log);
+  EXPECT_EQ(log->counters().malformed, 0u);
+  ASSERT_EQ(frames.size(), 2u);
+  EXPECT_EQ(frames[0].len, 8);
+  EXPECT_FALSE(frames[0].fd());
+  EXPECT_EQ(frames[0].data[7], 7);
+  EXPECT_EQ(frames[1].len, 8);
 }
 
 // Vector writes "07:30:00.004"; python-can writes the milliseconds unpadded, "07:30:00.4".

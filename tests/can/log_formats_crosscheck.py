@@ -10,8 +10,11 @@ and read back by our reader (frame_log_dump). Each frame must equal the original
 extended flag, remote/error/FD flags, length, data, bus name, timestamp within the format's
 resolution (ASC 1 us; BLF and MF4 0.5 us, as python-can hands the writers
 float64 epoch seconds, whose step at 1.7e9 s is 240 ns). Timestamps are also checked
-against python-can's own reader of the same file. Then `ndsid decode` on every file must print
-the same CSV as on the candump original, and cut files must make decode exit non-zero.
+against python-can's own reader of the same file. Then layouts the writers do not produce, made from their
+files (BLF object header version 2 and 10 us times, one container or stored ones; unfinalised
+MF4 as a logger leaves it), each against python-can or asammdf frame for frame. Then `ndsid
+decode` on every file must print the same CSV as on the candump original, and cut files must
+make decode exit non-zero.
 Exit 77 (skip) when python-can or asammdf are missing.
 """
 import argparse
@@ -34,6 +37,14 @@ except ImportError as e:  # pragma: no cover
     sys.exit(77)
 
 NS = 1_000_000_000
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import log_oracles  # noqa: E402
+import make_blf_variants  # noqa: E402
+import make_unfinalised_mf4  # noqa: E402
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "fuzz"))
+import make_mf4_logger_seeds  # noqa: E402
 
 
 def read_slice(path, count):
@@ -104,21 +115,8 @@ def write_with(writer, frames):
 
 
 def dump(tool, path):
-    out = subprocess.run([tool, path], capture_output=True, text=True)
-    frames, summary = [], ""
-    for line in out.stdout.splitlines():
-        if line.startswith("# format="):
-            summary = line
-            continue
-        if line.startswith("# fraction_read"):  # progress: rises to the whole file
-            summary += " " + line[2:]
-            continue
-        if line.startswith("#"):
-            continue
-        ns, bus, cid, flags, length, data = line.split()
-        frames.append(dict(ns=int(ns), bus=bus, id=int(cid, 16), flags=int(flags), len=int(length),
-                           data=b"" if data == "-" else bytes.fromhex(data)))
-    return out.returncode, frames, summary, out.stderr
+    """(exit code, frames, summary, stderr) of can_frame_log_dump (log_oracles.ndsid_read)."""
+    return log_oracles.ndsid_read(tool, path)
 
 
 def expected_flags(f):
@@ -168,6 +166,40 @@ def python_can_times(path, reader_cls, **kw):
 def decode_csv(ndsid, dbc, path):
     out = subprocess.run([ndsid, "decode", "--dbc", dbc, "--log", path], capture_output=True, text=True)
     return out.returncode, out.stdout, out.stderr
+
+
+def check_variants(dump, files, d, failures):
+    """Layouts python-can's writers do not produce, made from their files: BLF with object
+    header version 2, times in 10 us, CAN_MESSAGE2, in one container or in stored containers
+    cut every 1000 bytes (make_blf_variants.py); MF4 as a logger that lost power leaves it
+    (make_unfinalised_mf4.py: cycle counts and DT lengths unwritten, cut mid-record; DZ
+    blocks under a DL whose last link was not written); the CANedge layouts written block by
+    block (tests/fuzz/make_mf4_logger_seeds.py: VLSD channel group, virtual channels, tables).
+    Each against its oracle (python-can, asammdf), frame for frame."""
+    def write(data):
+        return lambda p: open(p, "wb").write(data)
+
+    variants = {  # name: (oracle, make(path), frames at least)
+        "blf-v2-10us-one-container": ("blf", lambda p: make_blf_variants.write_variant(files["blf"], p), 20000),
+        "blf-v2-10us-stored-1000": ("blf", lambda p: make_blf_variants.write_variant(files["blf"], p, stored=True), 20000),
+        "mf4-unfinalised-dt-cut": ("mf4", lambda p: make_unfinalised_mf4.unfinalise(files["mf4-0"], p), 10000),
+        "mf4-unfinalised-dz": ("mf4", lambda p: make_unfinalised_mf4.unfinalise(files["mf4-1"], p), 20000),
+        "mf4-unfinalised-dz-dl": ("mf4", lambda p: make_unfinalised_mf4.unfinalise(files["mf4-2"], p, dl=True), 20000),
+        "mf4-logger-vlsd-group": ("mf4", write(make_mf4_logger_seeds.first_firmware()), 7),
+        "mf4-logger-virtual-channels": ("mf4", write(make_mf4_logger_seeds.newer_firmware()), 4),
+    }
+    for name, (kind, make, least) in variants.items():
+        path = os.path.join(d, name)
+        make(path)
+        rc, ours, summary, err = log_oracles.ndsid_read(dump, path)
+        theirs = log_oracles.asammdf_read(path) if kind == "mf4" else log_oracles.python_can_read(path, kind)
+        r = log_oracles.compare(ours, theirs, 1000)
+        if rc != 0 or "malformed=0" not in summary or r["unmatched"] or r["extra"] or r["invalid"] or r["total"] < least:
+            failures.append(f"{name}: exit {rc} {summary} {err.strip()[:200]}; {r['equal']} / {r['total']} equal, "
+                            f"{len(r['extra'])} extra, e.g. {[log_oracles.describe(f) for f in r['unmatched'][:2]]}")
+        else:
+            print(f"{name}: {r['equal']} / {r['total']} frames equal to {'asammdf' if kind == 'mf4' else 'python-can'}, "
+                  f"worst time difference {r['worst_ns']} ns")
 
 
 def main():
@@ -222,6 +254,8 @@ def main():
                 print(f"{name}: python-can's reader agrees within {worst} ns")
                 if worst > 1000:
                     failures.append(f"{name}: python-can's times differ by up to {worst} ns")
+
+        check_variants(a.dump, files, d, failures)
 
         # ndsid decode: the same CSV as on the candump original
         original = os.path.join(d, "x.log")

@@ -73,6 +73,14 @@ inline std::string BlfObject(uint32_t type, uint64_t time, const std::string& bo
   return o + std::string(body.size() % 4, '\0');
 }
 
+// The same with a version-2 header (40 bytes: flags, time status, object version, time, original time).
+inline std::string BlfObjectV2(uint32_t type, uint64_t time, const std::string& body, uint32_t flags = 2) {
+  std::string o = "LOBJ" + Le<uint16_t>(40) + Le<uint16_t>(2) + Le<uint32_t>(40 + static_cast<uint32_t>(body.size())) +
+                  Le<uint32_t>(type) + Le<uint32_t>(flags) + Le<uint8_t>(0) + Le<uint8_t>(0) + Le<uint16_t>(0) +
+                  Le<uint64_t>(time) + Le<uint64_t>(0) + body;
+  return o + std::string(body.size() % 4, '\0');
+}
+
 // CAN_MESSAGE (type 1) body: channel, flags (0x80 remote), dlc, id (bit 31 extended), 8 bytes.
 inline std::string BlfCanBody(uint16_t channel, uint8_t flags, uint8_t dlc, uint32_t id, const std::string& data) {
   std::string d = data;

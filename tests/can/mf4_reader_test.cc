@@ -6,9 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
-#include <tuple>
 
 #include "log_test_util.h"
+#include "mf4_test_util.h"
 #include "ndsid/can/candump_reader.h"
 #include "ndsid/can/frame_log.h"
 #include "ndsid/common/error.h"
@@ -173,68 +173,30 @@ class UnsortedMf4 {
   static constexpr int64_t kStartNs = 1700000000'000'000'000LL;
 
   std::string Build() {
-    bytes_ = "MDF     4.10    ndsid   " + std::string(4, '\0') + Le<uint16_t>(410);
-    bytes_.resize(64, '\0');
-    bytes_ += Block("##HD", {0, 0, 0, 0, 0, 0}, Le<uint64_t>(kStartNs) + std::string(24, '\0'));
-    const uint64_t time_name = Add(Text("t")), frame_name = Add(Text("CAN_DataFrame"));
-    const uint64_t cc = Add(Block("##CC", {0, 0, 0, 0}, Le<uint8_t>(1) + std::string(3, '\0') + Le<uint16_t>(0) +
-                                                            Le<uint16_t>(2) + std::string(16, '\0') + F64(0.5) + F64(1e-6)));
-    // CAN_DataFrame children, built last to first: DataBytes(16, 8 bytes), DataLength(15),
-    // DLC(14), IDE(13), ID(9, 32 bits), BusChannel(8)
-    uint64_t next = 0;
-    const std::tuple<const char*, uint8_t, uint32_t, uint32_t> kids[] = {
-        {"CAN_DataFrame.DataBytes", 10, 16, 64}, {"CAN_DataFrame.DataLength", 0, 15, 8},
-        {"CAN_DataFrame.DLC", 0, 14, 8},         {"CAN_DataFrame.IDE", 0, 13, 8},
-        {"CAN_DataFrame.ID", 0, 9, 32},          {"CAN_DataFrame.BusChannel", 0, 8, 8}};
-    for (const auto& [name, type, byte, bits] : kids) next = Add(Channel(next, 0, Add(Text(name)), 0, 0, type, byte, bits));
-    const uint64_t frame = Add(Channel(0, next, frame_name, 0, 0, 10, 8, 128));
-    const uint64_t time = Add(Channel(frame, 0, time_name, cc, 2, 0, 0, 64));
-    const uint64_t other_value = Add(Channel(0, 0, Add(Text("EngineSpeed")), 0, 0, 0, 8, 16));
-    const uint64_t other_time = Add(Channel(other_value, 0, time_name, 0, 2, 4, 0, 64));
-    const uint64_t cg2 = Add(Group(0, other_time, 2, 2, 10));
-    const uint64_t cg1 = Add(Group(cg2, time, 1, 3, 24));
-    const uint64_t dg = bytes_.size();
-    const uint64_t dt = dg + 24 + 4 * 8 + 8;
-    bytes_ += Block("##DG", {0, cg1, dt, 0}, Le<uint8_t>(1) + std::string(7, '\0'));
-    std::memcpy(bytes_.data() + 64 + 24, &dg, 8);  // HD's first data group
+    Mf4Writer w(kStartNs);
+    const uint64_t cc = w.Conversion(1, {0.5, 1e-6});
+    const uint64_t can_channels = w.Channels({{"t", 2, 0, 0, 0, 64, cc},
+                                              {"CAN_DataFrame.BusChannel", 0, 0, 8, 0, 8},
+                                              {"CAN_DataFrame.ID", 0, 0, 9, 0, 32},
+                                              {"CAN_DataFrame.IDE", 0, 0, 13, 0, 8},
+                                              {"CAN_DataFrame.DLC", 0, 0, 14, 0, 8},
+                                              {"CAN_DataFrame.DataLength", 0, 0, 15, 0, 8},
+                                              {"CAN_DataFrame.DataBytes", 0, 10, 16, 0, 64}});
+    const uint64_t other_channels = w.Channels({{"t", 2, 4, 0, 0, 64}, {"EngineSpeed", 0, 0, 8, 0, 16}});
+    const uint64_t cg2 = w.Group(0, other_channels, 2, 2, 10);
+    const uint64_t cg1 = w.Group(cg2, can_channels, 1, 3, 24);
+    const uint64_t dg = w.DataGroup(cg1, 0, 1);
     std::string records;
     records += Frame(1000, 1, 0x123, false, "\x11\x22\x33");
     records += Other(1500.0, 4000);
     records += Frame(2000, 0, 0x1ABCDEF0, true, "\x01\x02\x03\x04\x05\x06\x07\x08");
     records += Other(2500.0, 4100);
     records += Frame(3000, 1, 0x7FF, false, "");
-    bytes_ += Block("##DT", {}, records);
-    return bytes_;
+    w.SetLink(dg, 2, w.Add(Mf4Writer::Block("##DT", {}, records)));  // the data block is last in the file
+    return w.bytes();
   }
 
  private:
-  static std::string F64(double v) {
-    std::string s(8, '\0');
-    std::memcpy(s.data(), &v, 8);
-    return s;
-  }
-  static std::string Block(const char* id, const std::vector<uint64_t>& links, const std::string& data) {
-    std::string b = std::string(id, 4) + std::string(4, '\0') + Le<uint64_t>(24 + 8 * links.size() + data.size()) +
-                    Le<uint64_t>(links.size());
-    for (uint64_t l : links) b += Le(l);
-    return b + data;
-  }
-  static std::string Text(const std::string& text) {
-    std::string t = text + '\0';
-    t.resize((t.size() + 7) / 8 * 8, '\0');
-    return Block("##TX", {}, t);
-  }
-  static std::string Channel(uint64_t next, uint64_t composition, uint64_t name, uint64_t cc, uint8_t cn_type,
-                             uint8_t data_type, uint32_t byte, uint32_t bits) {
-    const std::string data = Le<uint8_t>(cn_type) + Le<uint8_t>(cn_type == 2 ? 1 : 0) + Le(data_type) + Le<uint8_t>(0) +
-                             Le(byte) + Le(bits) + std::string(12, '\0') + Le<uint8_t>(0) + Le<uint8_t>(0) +
-                             Le<uint16_t>(0) + std::string(48, '\0');
-    return Block("##CN", {next, composition, name, 0, cc, 0, 0, 0}, data);
-  }
-  static std::string Group(uint64_t next, uint64_t first_channel, uint64_t record_id, uint64_t cycles, uint32_t bytes) {
-    return Block("##CG", {next, first_channel, 0, 0, 0, 0},
-                 Le(record_id) + Le(cycles) + Le<uint16_t>(0) + Le<uint16_t>(0) + Le<uint32_t>(0) + Le(bytes) + Le<uint32_t>(0));
-  }
   static std::string Frame(uint64_t time_us, uint8_t bus, uint32_t id, bool ext, const std::string& data) {
     std::string d = data;
     d.resize(8, '\0');
@@ -242,13 +204,6 @@ class UnsortedMf4 {
            Le<uint8_t>(static_cast<uint8_t>(data.size())) + d;
   }
   static std::string Other(double time_s, uint16_t value) { return Le<uint8_t>(2) + F64(time_s) + Le(value); }
-  uint64_t Add(const std::string& block) {
-    const uint64_t at = bytes_.size();
-    bytes_ += block;
-    return at;
-  }
-
-  std::string bytes_;
 };
 
 TEST(Mf4Reader, UnsortedGroupsWithLinearTimeConversion) {

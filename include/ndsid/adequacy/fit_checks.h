@@ -6,7 +6,8 @@
 //   converged     the solver ended on its convergence test (not its iteration cap, not failed)
 //   explained     each fitted output's held-out RMSE against its noise floor (the white part of
 //                 its residual) and against the output's own spread about zero
-//   bounds        no parameter that EG depends on ended on its bound
+//   bounds        the box does not set EG: released, the bounds it holds parameters on would
+//                 move EG by at most a sigma (one Newton step from the estimate)
 //   steady_state  the dynamic EG against the closed-form steady-state EG, within their combined
 //                 sigma and the regression's known bias
 //   halves        the EGs of two disjoint halves of the window (alternate drives) within their
@@ -38,8 +39,8 @@ struct OutputFacts {
 struct BoundFacts {
   std::string name;
   double value = 0;
-  double eg_correlation = 0;  // correlation of the parameter's estimate with EG's (covariance)
-  bool in_eg = false;         // EG's formula contains it (cv, ch, lv; m)
+  double eg_correlation = 0;        // correlation of the parameter's estimate with EG's (covariance)
+  double eg_shift_deg_per_g = 0;    // EG's move were this bound alone released
 };
 
 // EG of one half of the window, fitted on its own.
@@ -55,6 +56,7 @@ struct FitFacts {
   int iterations = 0;
   std::vector<OutputFacts> outputs;
   std::vector<BoundFacts> at_bound;
+  double eg_bound_shift_deg_per_g = 0;  // EG's move were every bound released
   double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
   bool steady_state_valid = false;
   double steady_state_eg_deg_per_g = 0, steady_state_eg_se_deg_per_g = 0;

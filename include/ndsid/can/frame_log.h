@@ -3,7 +3,8 @@
 //   candump -l / -L  "(1700000000.123456) can0 123#DEADBEEF" lines, plain or gzip
 //   Vector ASC       text with "date ..." / "base hex|dec" / "Begin Triggerblock" header, plain or gzip
 //   Vector BLF       binary, "LOGG" file header, zlib-compressed LOG_CONTAINER objects
-//   ASAM MF4         "MDF     " 4.x with CAN bus-logging groups (CAN_DataFrame, ...)
+//   ASAM MF4         "MDF     " 4.x with CAN bus-logging groups (CAN_DataFrame, ...), also
+//                    unfinalised ("UnFinMF ") as stand-alone loggers write them
 // Formats, recognition rules, bus naming and limits: docs/can-input.md.
 #pragma once
 
@@ -35,8 +36,9 @@ class FrameLog : public FrameSource {
   virtual LogFormat format() const noexcept = 0;
   // The first kKeptMalformed rejected records (all are counted in counters().malformed).
   virtual const std::vector<MalformedRecord>& first_malformed() const noexcept = 0;
-  // Empty unless reading stopped early (read error, truncated or corrupt file); the reader
-  // then reports kEnd. Tools must not treat such a file as complete.
+  // Empty unless reading stopped early (read error, truncated or corrupt file) or the file
+  // ended with more records malformed than read; the reader then reports kEnd. Tools must not
+  // treat such a file as complete.
   virtual const std::string& io_error() const noexcept = 0;
   // Records that are valid but not CAN frames (ASC statistics, BLF markers, MF4 groups that
   // are not bus logging, ...): skipped, counted here, not malformed.

@@ -172,7 +172,7 @@ struct PlausibilityConfig {
   // Checks of the fit (adequacy/fit_checks.h, docs/monitoring.md):
   double rmse_floor_ratio_max = 5;       // held-out RMSE / the output's noise floor (white part of the residual)
   double rmse_spread_ratio_max = 0.5;    // held-out RMSE / the measured output's spread about zero
-  double bound_eg_correlation_min = 0.2; // a parameter on its bound moves EG from this |correlation| on
+  double bound_shift_sigma_max = 1.0;    // EG's move were the bounds released, in sigma(EG)
   double steady_state_z_max = 3;         // |dynamic EG - steady-state EG| / combined sigma
   double steady_state_rel_bias = 0.1;    // the steady-state regression's bias allowance, share of |EG|
   double halves_z_max = 3;               // |EG(half 1) - EG(half 2)| / combined sigma

@@ -16,6 +16,7 @@
 
 #include "ndsid/config/config.h"
 #include "ndsid/gate/gate.h"
+#include "ndsid/identify/half_estimate.h"
 #include "ndsid/identify/linearized_window.h"
 #include "ndsid/model/model_spec.h"
 #include "ndsid/model/single_track.h"
@@ -32,6 +33,8 @@ struct ParameterEstimate {
   double se = 0;          // standard error (0 when fixed)
   bool fixed = false;
   bool at_bound = false;  // ended on the box: the data push it outside the prior box (AtBound)
+  double eg_correlation = 0;  // correlation of its estimate with EG's (0 when fixed)
+  double eg_release_shift_rad_per_mps2 = 0;  // on a bound: EG's move were it released (Newton step)
 };
 
 // A value on its box [lower, upper], within 1e-6 of the box's width: what at_bound reports.
@@ -81,6 +84,15 @@ struct IdentificationResult {
   double eg_se_rad_per_mps2 = 0;
   double eg_deg_per_g = 0;
   double eg_se_deg_per_g = 0;
+  // What the checks of the fit read (adequacy/fit_checks.h). sigma(EG) as the fit gave it, before
+  // the halves' disagreement widened the published one (HonestSigma); the two halves (alternate
+  // training drives; none with fewer than two); each output's noise floor, the white part of its
+  // training residual sqrt(sum (e_k - e_k-1)^2 / 2n) (-1: unknown).
+  double eg_se_fit_rad_per_mps2 = 0;
+  double eg_bound_shift_rad_per_mps2 = 0;  // EG's move were every bound released (one Newton step)
+  std::optional<std::pair<HalfEstimate, HalfEstimate>> halves;
+  double floor_a_y_mps2 = -1;
+  double floor_yaw_radps = -1;
   std::vector<double> correlation;  // row-major over all parameters (base then effects); 0 for fixed ones
   double rmse_train_mps2 = 0;        // a_y, unweighted, whatever the outputs
   double rmse_validation_mps2 = -1;  // -1: no validation data

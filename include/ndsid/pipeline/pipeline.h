@@ -192,6 +192,9 @@ class Pipeline {
   std::deque<gate::StandstillStop> stops_;
   std::map<int64_t, adequacy::SpeedSums> wheel_speed_;  // per drive of the window (plausibility; older ones are dropped)
   std::optional<Estimate> last_;
+  // The last accepted fit's parameters whatever the checks said (the next fit's warm start): the
+  // chain of fits does not depend on the validity verdicts, only what is published does.
+  std::optional<std::vector<double>> last_fit_values_;
   std::shared_ptr<const identify::LinearizedWindow> linearized_;  // the incremental prior
   std::vector<Estimate> history_;
   std::set<int64_t> implausible_drives_reported_;  // drives whose failed check was logged

@@ -92,6 +92,199 @@ std::string AddedParams(const discover::Rung& r, const model::EffectLibrary& lib
   return s;
 }
 
+// The report as it is written: the Markdown page and the JSON, filled section by section in the
+// order the terminal shows them.
+struct DiagnoseReport {
+  std::string md;    // diagnosis.md
+  nlohmann::json j;  // diagnosis.json
+};
+
+// Step 0: the roles' latencies relative to a_y (already-configured latencies are in the data).
+// Returns the latencies --apply writes: each applied one added to the configured one.
+std::map<config::Role, double> ReportAlignment(const discover::Ladder& ladder, const config::Config& config, DiagnoseReport& r) {
+  std::map<config::Role, double> new_latency;
+  if (ladder.alignment.empty()) return new_latency;
+  std::printf("\nstep 0, time alignment (latency relative to a_y; shifts applied when significant):\n");
+  r.md += "## Step 0: time alignment\n\nEach role's latency relative to the lateral acceleration, estimated by a "
+          "time-shift search; significant ones are applied before the ladder.\n\n| role | latency [ms] | σ [ms] | "
+          "applied | method | note |\n|---|---|---|---|---|---|\n";
+  for (const auto& l : ladder.alignment) {
+    const std::string key = config::RoleKey(l.role);
+    const double configured = config.role(l.role) ? config.role(l.role)->latency_s : 0.0;
+    if (l.apply) new_latency[l.role] = configured + l.latency_s;
+    const std::string value = l.se_s > 0 || l.latency_s != 0 ? Fmt("%+8.1f ± %-6.1f ms", 1e3 * l.latency_s, 1e3 * l.se_s)
+                                                                : std::string("       —          ");
+    std::printf("  %-22s %s  %-7s %s%s\n", key.c_str(), value.c_str(), l.apply ? "applied" : "-", l.method.c_str(),
+                l.note.empty() ? "" : (" (" + l.note + ")").c_str());
+    r.md += "| " + key + " | " + Fmt("%+.1f", 1e3 * l.latency_s) + " | " + (l.determined ? Fmt("%.1f", 1e3 * l.se_s) : "—") +
+            " | " + (l.apply ? "yes" : "no") + " | " + l.method + " | " + l.note + " |\n";
+    r.j["alignment"].push_back({{"role", key}, {"latency_s", l.latency_s}, {"se_s", l.se_s}, {"determined", l.determined},
+                                {"applied", l.apply}, {"configured_latency_s", configured}, {"method", l.method},
+                                {"note", l.note}});
+  }
+  if (ladder.aligned) {
+    const auto& b = ladder.before_alignment;
+    const auto& f = ladder.rungs.front().fit;
+    std::printf("  aligned: RMSE train %.4f -> %.4f, held-out %.4f -> %.4f, EG %.3f -> %.3f deg/g\n", b.rmse_train_mps2,
+                f.rmse_train_mps2, b.rmse_validation_mps2, f.rmse_validation_mps2, b.eg_deg_per_g, f.eg_deg_per_g);
+    r.md += "\nAligned: RMSE train " + Fmt("%.4f → %.4f", b.rmse_train_mps2, f.rmse_train_mps2) + ", held-out " +
+            Fmt("%.4f → %.4f", b.rmse_validation_mps2, f.rmse_validation_mps2) + ", EG " +
+            Fmt("%.3f → %.3f deg/g", b.eg_deg_per_g, f.eg_deg_per_g) + ". The ladder below works on the aligned data.\n\n";
+  } else {
+    r.md += "\nNo latency applied: the ladder works on the data as recorded.\n\n";
+  }
+  return new_latency;
+}
+
+// The first diagnosis: the candidates' ranking, the signatures, unexplained structure.
+void ReportRanking(const discover::Diagnosis& d, DiagnoseReport& r) {
+  std::printf("\nfirst diagnosis of %s: RMSE %.4f m/s^2 over %zu residuals\n", d.model.c_str(), d.rmse, d.residuals);
+  std::printf("%-4s %-16s %-20s %14s %-6s %10s %8s %7s %8s %-4s %s\n", "rank", "effect", "parameter", "one-step", "unit",
+              "pred.RMSE", "dRSS %", "unique", "z_rob", "sig", "confounded with");
+  r.md += "## Candidate ranking (first diagnosis of " + d.model + ", RMSE " + Fmt("%.4f", d.rmse) +
+          " m/s²)\n\n| rank | effect | parameter | one-step | unit | predicted RMSE | ΔRSS share | uniqueness | robust z | significant | confounded with |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+  const double rss = d.rmse * d.rmse * static_cast<double>(d.residuals);
+  int rank = 0;
+  for (const auto& c : d.ranked) {
+    ++rank;
+    const double share = rss > 0 ? 100.0 * c.drss / rss : 0.0;
+    const std::string conf = c.confounded_with.empty() ? "" : Join(c.confounded_with) + " — separated by: " + Separation(c.effect);
+    std::printf("%-4d %-16s %-20s %14.5g %-6s %10.4f %8.2f %7.3f %8.1f %-4s %s\n", rank, c.effect.c_str(), c.param.c_str(),
+                c.one_step, c.unit.c_str(), c.rmse_predicted, share, c.uniqueness, c.z_robust, c.significant ? "yes" : "no",
+                conf.c_str());
+    r.md += "| " + std::to_string(rank) + " | " + c.effect + " | " + c.param + " | " + Fmt("%.5g", c.one_step) + " | " +
+            c.unit + " | " + Fmt("%.4f", c.rmse_predicted) + " | " + Fmt("%.2f %%", share) + " | " +
+            Fmt("%.3f", c.uniqueness) + " | " + Fmt("%.1f", c.z_robust) + " | " + (c.significant ? "yes" : "no") + " | " +
+            conf + " |\n";
+    r.j["ranking"].push_back({{"effect", c.effect}, {"param", c.param}, {"unit", c.unit}, {"one_step", c.one_step},
+                              {"rmse_predicted_mps2", c.rmse_predicted}, {"drss_share", share / 100.0},
+                              {"uniqueness", c.uniqueness}, {"z_robust", c.z_robust}, {"significant", c.significant},
+                              {"confounded_with", c.confounded_with},
+                              {"separated_by", c.confounded_with.empty() ? "" : Separation(c.effect)}});
+  }
+  std::printf("\nresidual correlations with the signatures:\n");
+  r.md += "\n## Residual correlations with the signatures\n\n| signal | r | robust z | ΔRSS share |\n|---|---|---|---|\n";
+  for (const auto& s : d.signatures) {
+    const double share = rss > 0 ? 100.0 * s.drss / rss : 0.0;
+    std::printf("  %-48s r = %+.3f  z = %+6.1f  dRSS %5.2f %%\n", s.signal.c_str(), s.correlation, s.z_robust, share);
+    r.md += "| " + s.signal + " | " + Fmt("%+.3f", s.correlation) + " | " + Fmt("%+.1f", s.z_robust) + " | " + Fmt("%.2f %%", share) + " |\n";
+    r.j["signatures"].push_back({{"signal", s.signal}, {"correlation", s.correlation}, {"z_robust", s.z_robust}, {"drss_share", share / 100.0}});
+  }
+  r.j["unexplained"] = d.unexplained;
+  r.j["unexplained_text"] = d.unexplained_text;
+  if (d.unexplained) {
+    std::printf("unexplained: %s\n", d.unexplained_text.c_str());
+    r.md += "\n**Unexplained:** " + d.unexplained_text + "\n";
+  }
+}
+
+// The rungs, then every candidate the ladder refitted, kept or not, and why.
+void ReportLadder(const discover::Ladder& ladder, const model::EffectLibrary& library, DiagnoseReport& r) {
+  std::printf("\nerror ladder (stop: %s)\n%-4s %-42s %10s %10s %18s %-40s %8s\n", ladder.stop_reason.c_str(), "rung", "model",
+              "RMSE train", "held-out", "EG ± σ [deg/g]", "added parameter ± σ", "ΔBIC");
+  r.md += "\n## Error ladder\n\nStop: " + ladder.stop_reason + "\n\n| rung | model | RMSE train | RMSE held-out | EG ± σ [deg/g] | added parameter ± σ | ΔBIC |\n|---|---|---|---|---|---|---|\n";
+  for (size_t i = 0; i < ladder.rungs.size(); ++i) {
+    const auto& rung = ladder.rungs[i];
+    const std::string added = AddedParams(rung, library);
+    std::printf("%-4zu %-42s %10.4f %10.4f %9.3f ± %-6.3f %-40s %8.1f\n", i, rung.model.c_str(), rung.fit.rmse_train_mps2,
+                rung.fit.rmse_validation_mps2, rung.fit.eg_deg_per_g, rung.fit.eg_se_deg_per_g, added.c_str(), rung.delta_bic);
+    r.md += "| " + std::to_string(i) + " | " + rung.model + " | " + Fmt("%.4f", rung.fit.rmse_train_mps2) + " | " +
+            Fmt("%.4f", rung.fit.rmse_validation_mps2) + " | " + Fmt("%.3f ± %.3f", rung.fit.eg_deg_per_g, rung.fit.eg_se_deg_per_g) +
+            " | " + added + " | " + (i ? Fmt("%.1f", rung.delta_bic) : std::string("")) + " |\n";
+    r.j["ladder"].push_back({{"model", rung.model}, {"added", rung.added}, {"valid", rung.fit.valid},
+                             {"rmse_train_mps2", rung.fit.rmse_train_mps2}, {"rmse_validation_mps2", rung.fit.rmse_validation_mps2},
+                             {"eg_deg_per_g", rung.fit.eg_deg_per_g}, {"eg_se_deg_per_g", rung.fit.eg_se_deg_per_g},
+                             {"added_parameters", added}, {"delta_bic", rung.delta_bic}});
+  }
+  if (ladder.trials.empty()) return;
+  std::printf("\ncandidates refitted by the ladder:\n");
+  r.md += "\n### Candidates refitted\n\n| rung | effect | held-out RMSE before → after | verdict |\n|---|---|---|---|\n";
+  r.j["trials"] = nlohmann::json::array();
+  for (const auto& t : ladder.trials) {
+    std::printf("  rung %d + %-16s %.4f -> %.4f  %s\n", t.step, t.effect.c_str(), t.held_out_before, t.held_out_after,
+                t.why.c_str());
+    r.md += "| " + std::to_string(t.step) + " | " + t.effect + " | " + Fmt("%.4f", t.held_out_before) + " → " +
+            Fmt("%.4f", t.held_out_after) + " | " + t.why + " |\n";
+    r.j["trials"].push_back({{"step", t.step}, {"effect", t.effect}, {"accepted", t.accepted},
+                             {"held_out_before_mps2", t.held_out_before}, {"held_out_after_mps2", t.held_out_after},
+                             {"yaw_before_radps", t.yaw_before}, {"yaw_after_radps", t.yaw_after},
+                             {"delta_bic", t.delta_bic}, {"eg_shift_rel", t.eg_shift_rel},
+                             {"eg_shift_sigma", t.eg_shift_sigma}, {"why", t.why}});
+  }
+}
+
+// After the ladder: each output's held-out residual against its noise floor, and whether EG is settled.
+void ReportVerdicts(const discover::Ladder& ladder, DiagnoseReport& r) {
+  if (!ladder.verdicts.empty()) {
+    std::printf("\nafter the ladder (held-out residual against its noise floor, the white part):\n");
+    r.md += "\n## After the ladder\n\n";
+    r.j["verdicts"] = nlohmann::json::array();
+    for (const auto& v : ladder.verdicts) {
+      std::printf("  %s\n", v.text.c_str());
+      r.md += std::string("- ") + (v.unexplained ? "**" : "") + v.text + (v.unexplained ? "**" : "") + "\n";
+      r.j["verdicts"].push_back({{"output", v.output}, {"unit", v.unit}, {"rmse", v.rmse}, {"noise_floor", v.floor},
+                                 {"ratio", v.ratio}, {"residuals", v.residuals}, {"unexplained", v.unexplained}, {"text", v.text}});
+    }
+  }
+  r.j["eg_unsettled"] = ladder.eg_unsettled;
+  if (!ladder.eg_unsettled.empty()) {
+    std::printf("  %s\n", ladder.eg_unsettled.c_str());
+    r.md += "- **" + ladder.eg_unsettled + "**\n";
+  }
+}
+
+// diagnosis.json, the ladder's plot, diagnosis.md and the one-page HTML report into `out`.
+void WriteReport(DiagnoseReport& r, const std::string& out, const std::vector<std::string>& final_effects,
+                 const std::vector<std::string>& logs, const std::string& title) {
+  fs::create_directories(out);
+  WriteFileAtomically((fs::path(out) / "diagnosis.json").string(), r.j.dump(2) + "\n");
+  std::string why_not;
+  if (RunPlotScript("ladder", out, &why_not)) {
+    r.md += "\n![error ladder](error_ladder.png)\n";
+  } else {
+    r.md += "\nNo plot: " + why_not + "\n";
+    std::printf("plot not written: %s\n", why_not.c_str());
+  }
+  r.md += "\nFinal effects: " + JoinEffects(final_effects) + "\n";
+  WriteFileAtomically((fs::path(out) / "diagnosis.md").string(), r.md);
+  std::printf("\nfinal effects: %s\nreport: %s\n", JoinEffects(final_effects).c_str(), (fs::path(out) / "diagnosis.md").c_str());
+  HtmlReportInputs page;  // the one-page report of what diagnose knows (html_report.h)
+  page.diagnose_dir = out;
+  page.truth_yaml = TruthBeside(logs);
+  page.title = title;
+  WriteCommandPage(out, page);
+}
+
+// --apply: the ladder's effect list and step 0's applied latencies written into the configuration.
+void ApplyToConfig(const std::string& config_path, const std::vector<std::string>& final_effects,
+                   const std::map<config::Role, double>& new_latency) {
+  const std::string text = ReadWholeFile(config_path);
+  std::string what, what_latency;
+  std::string edited = SetModelEffects(text, final_effects, config_path, &what);
+  if (!new_latency.empty()) edited = SetRoleLatencies(edited, new_latency, config_path, &what_latency);
+  if (edited == text) {
+    std::printf("--apply: %s unchanged, model.effects is already %s\n", config_path.c_str(), JoinEffects(final_effects).c_str());
+  } else {
+    WriteFileAtomically(config_path, edited);
+    std::printf("--apply: %s: %s%s\n", config_path.c_str(), what.c_str(), what_latency.empty() ? "" : ("; " + what_latency).c_str());
+  }
+}
+
+// The ladder's options from the command line and the replayed data.
+discover::LadderOptions MakeLadderOptions(const DiagnoseArgs& a, const std::vector<std::string>& candidates, const ReplayedData& data,
+                                          const std::vector<std::string>& start) {
+  discover::LadderOptions opt;
+  opt.max_steps = a.max_steps;
+  opt.diagnosis.candidates = candidates;
+  opt.diagnosis.z_threshold = a.z_threshold;
+  opt.unexplained_ratio = a.unexplained_ratio;
+  opt.align = !a.no_align;
+  opt.standstill = data.window.standstill;
+  opt.speed_scale_evidence = stats::EstimateSpeedScale(data.window.training);
+  opt.start_fit = ReplayedFit(data, start);  // the replay's own fit of the starting model
+  return opt;
+}
+
 int Run(const DiagnoseArgs& a) {
   // The configuration's effects (built-ins + its formulas): names are checked against them
   // before any work.
@@ -105,15 +298,7 @@ int Run(const DiagnoseArgs& a) {
   const std::vector<int64_t> hold_out = ParseDriveList(a.hold_out);
   std::unique_ptr<ReplayedData> data = ReplayForModelWork(a.config, a.logs, start);
   HoldOutDrives(*data, hold_out);
-  discover::LadderOptions opt;
-  opt.max_steps = a.max_steps;
-  opt.diagnosis.candidates = candidates;
-  opt.diagnosis.z_threshold = a.z_threshold;
-  opt.unexplained_ratio = a.unexplained_ratio;
-  opt.align = !a.no_align;
-  opt.standstill = data->window.standstill;
-  opt.speed_scale_evidence = stats::EstimateSpeedScale(data->window.training);
-  opt.start_fit = ReplayedFit(*data, start);  // the replay's own fit of the starting model
+  const discover::LadderOptions opt = MakeLadderOptions(a, candidates, *data, start);
   spdlog::info("{}", opt.speed_scale_evidence.note);
   const discover::Ladder ladder = discover::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
                                                              start, data->pipeline->library(), data->window.training,
@@ -122,181 +307,31 @@ int Run(const DiagnoseArgs& a) {
   for (const auto& r : ladder.rungs)
     if (!r.added.empty()) final_effects.push_back(r.added);
 
-  std::string md = "# ndsid diagnose: " + data->outcome.name + "\n\nStart: " + JoinEffects(start) + "\n\n";
-  nlohmann::json j;
-  j["data"] = data->outcome.name;
-  j["start_effects"] = start;
-  j["final_effects"] = final_effects;
-  j["stop_reason"] = ladder.stop_reason;
+  DiagnoseReport report;
+  report.md = "# ndsid diagnose: " + data->outcome.name + "\n\nStart: " + JoinEffects(start) + "\n\n";
+  report.j["data"] = data->outcome.name;
+  report.j["start_effects"] = start;
+  report.j["final_effects"] = final_effects;
+  report.j["stop_reason"] = ladder.stop_reason;
   {
     const stats::SpeedScaleEvidence& e = opt.speed_scale_evidence;
-    j["speed_scale_evidence"] = {{"available", e.available}, {"scale", e.scale}, {"se", e.se}, {"chunks", e.chunks},
-                                 {"samples", e.samples}, {"note", e.note}};
+    report.j["speed_scale_evidence"] = {{"available", e.available}, {"scale", e.scale}, {"se", e.se}, {"chunks", e.chunks},
+                                        {"samples", e.samples}, {"note", e.note}};
   }
   std::printf("diagnose %s: start %s, %zu training / %zu held-out segments\n", data->outcome.name.c_str(),
               JoinEffects(start).c_str(), data->window.training.size(), data->window.validation.size());
-  // Step 0: the roles' latencies relative to a_y (already-configured latencies are in the data).
-  std::map<config::Role, double> new_latency;
-  if (!ladder.alignment.empty()) {
-    std::printf("\nstep 0, time alignment (latency relative to a_y; shifts applied when significant):\n");
-    md += "## Step 0: time alignment\n\nEach role's latency relative to the lateral acceleration, estimated by a "
-          "time-shift search; significant ones are applied before the ladder.\n\n| role | latency [ms] | σ [ms] | "
-          "applied | method | note |\n|---|---|---|---|---|---|\n";
-    for (const auto& l : ladder.alignment) {
-      const std::string key = config::RoleKey(l.role);
-      const double configured = data->config.role(l.role) ? data->config.role(l.role)->latency_s : 0.0;
-      if (l.apply) new_latency[l.role] = configured + l.latency_s;
-      const std::string value = l.se_s > 0 || l.latency_s != 0 ? Fmt("%+8.1f ± %-6.1f ms", 1e3 * l.latency_s, 1e3 * l.se_s)
-                                                                  : std::string("       —          ");
-      std::printf("  %-22s %s  %-7s %s%s\n", key.c_str(), value.c_str(), l.apply ? "applied" : "-", l.method.c_str(),
-                  l.note.empty() ? "" : (" (" + l.note + ")").c_str());
-      md += "| " + key + " | " + Fmt("%+.1f", 1e3 * l.latency_s) + " | " + (l.determined ? Fmt("%.1f", 1e3 * l.se_s) : "—") +
-            " | " + (l.apply ? "yes" : "no") + " | " + l.method + " | " + l.note + " |\n";
-      j["alignment"].push_back({{"role", key}, {"latency_s", l.latency_s}, {"se_s", l.se_s}, {"determined", l.determined},
-                                {"applied", l.apply}, {"configured_latency_s", configured}, {"method", l.method},
-                                {"note", l.note}});
-    }
-    if (ladder.aligned) {
-      const auto& b = ladder.before_alignment;
-      const auto& f = ladder.rungs.front().fit;
-      std::printf("  aligned: RMSE train %.4f -> %.4f, held-out %.4f -> %.4f, EG %.3f -> %.3f deg/g\n", b.rmse_train_mps2,
-                  f.rmse_train_mps2, b.rmse_validation_mps2, f.rmse_validation_mps2, b.eg_deg_per_g, f.eg_deg_per_g);
-      md += "\nAligned: RMSE train " + Fmt("%.4f → %.4f", b.rmse_train_mps2, f.rmse_train_mps2) + ", held-out " +
-            Fmt("%.4f → %.4f", b.rmse_validation_mps2, f.rmse_validation_mps2) + ", EG " +
-            Fmt("%.3f → %.3f deg/g", b.eg_deg_per_g, f.eg_deg_per_g) + ". The ladder below works on the aligned data.\n\n";
-    } else {
-      md += "\nNo latency applied: the ladder works on the data as recorded.\n\n";
-    }
-  }
+  const std::map<config::Role, double> new_latency = ReportAlignment(ladder, data->config, report);
   // The speed signal's scale against a_x: evidence the lateral outputs cannot give.
   std::printf("\n%s\n", opt.speed_scale_evidence.note.c_str());
-  md += "Speed scale: " + opt.speed_scale_evidence.note +
-        (opt.speed_scale_evidence.available ? " (a prior on speed_scale in every fit below; docs/two-outputs.md)" : "") + ".\n\n";
-  if (!ladder.diagnoses.empty()) {
-    const discover::Diagnosis& d = ladder.diagnoses.front();
-    std::printf("\nfirst diagnosis of %s: RMSE %.4f m/s^2 over %zu residuals\n", d.model.c_str(), d.rmse, d.residuals);
-    std::printf("%-4s %-16s %-20s %14s %-6s %10s %8s %7s %8s %-4s %s\n", "rank", "effect", "parameter", "one-step", "unit",
-                "pred.RMSE", "dRSS %", "unique", "z_rob", "sig", "confounded with");
-    md += "## Candidate ranking (first diagnosis of " + d.model + ", RMSE " + Fmt("%.4f", d.rmse) +
-          " m/s²)\n\n| rank | effect | parameter | one-step | unit | predicted RMSE | ΔRSS share | uniqueness | robust z | significant | confounded with |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
-    const double rss = d.rmse * d.rmse * static_cast<double>(d.residuals);
-    int rank = 0;
-    for (const auto& c : d.ranked) {
-      ++rank;
-      const double share = rss > 0 ? 100.0 * c.drss / rss : 0.0;
-      const std::string conf = c.confounded_with.empty() ? "" : Join(c.confounded_with) + " — separated by: " + Separation(c.effect);
-      std::printf("%-4d %-16s %-20s %14.5g %-6s %10.4f %8.2f %7.3f %8.1f %-4s %s\n", rank, c.effect.c_str(), c.param.c_str(),
-                  c.one_step, c.unit.c_str(), c.rmse_predicted, share, c.uniqueness, c.z_robust, c.significant ? "yes" : "no",
-                  conf.c_str());
-      md += "| " + std::to_string(rank) + " | " + c.effect + " | " + c.param + " | " + Fmt("%.5g", c.one_step) + " | " +
-            c.unit + " | " + Fmt("%.4f", c.rmse_predicted) + " | " + Fmt("%.2f %%", share) + " | " +
-            Fmt("%.3f", c.uniqueness) + " | " + Fmt("%.1f", c.z_robust) + " | " + (c.significant ? "yes" : "no") + " | " +
-            conf + " |\n";
-      j["ranking"].push_back({{"effect", c.effect}, {"param", c.param}, {"unit", c.unit}, {"one_step", c.one_step},
-                              {"rmse_predicted_mps2", c.rmse_predicted}, {"drss_share", share / 100.0},
-                              {"uniqueness", c.uniqueness}, {"z_robust", c.z_robust}, {"significant", c.significant},
-                              {"confounded_with", c.confounded_with},
-                              {"separated_by", c.confounded_with.empty() ? "" : Separation(c.effect)}});
-    }
-    std::printf("\nresidual correlations with the signatures:\n");
-    md += "\n## Residual correlations with the signatures\n\n| signal | r | robust z | ΔRSS share |\n|---|---|---|---|\n";
-    for (const auto& s : d.signatures) {
-      const double share = rss > 0 ? 100.0 * s.drss / rss : 0.0;
-      std::printf("  %-48s r = %+.3f  z = %+6.1f  dRSS %5.2f %%\n", s.signal.c_str(), s.correlation, s.z_robust, share);
-      md += "| " + s.signal + " | " + Fmt("%+.3f", s.correlation) + " | " + Fmt("%+.1f", s.z_robust) + " | " + Fmt("%.2f %%", share) + " |\n";
-      j["signatures"].push_back({{"signal", s.signal}, {"correlation", s.correlation}, {"z_robust", s.z_robust}, {"drss_share", share / 100.0}});
-    }
-    j["unexplained"] = d.unexplained;
-    j["unexplained_text"] = d.unexplained_text;
-    if (d.unexplained) {
-      std::printf("unexplained: %s\n", d.unexplained_text.c_str());
-      md += "\n**Unexplained:** " + d.unexplained_text + "\n";
-    }
-  }
-  std::printf("\nerror ladder (stop: %s)\n%-4s %-42s %10s %10s %18s %-40s %8s\n", ladder.stop_reason.c_str(), "rung", "model",
-              "RMSE train", "held-out", "EG ± σ [deg/g]", "added parameter ± σ", "ΔBIC");
-  md += "\n## Error ladder\n\nStop: " + ladder.stop_reason + "\n\n| rung | model | RMSE train | RMSE held-out | EG ± σ [deg/g] | added parameter ± σ | ΔBIC |\n|---|---|---|---|---|---|---|\n";
-  for (size_t i = 0; i < ladder.rungs.size(); ++i) {
-    const auto& r = ladder.rungs[i];
-    const std::string added = AddedParams(r, library);
-    std::printf("%-4zu %-42s %10.4f %10.4f %9.3f ± %-6.3f %-40s %8.1f\n", i, r.model.c_str(), r.fit.rmse_train_mps2,
-                r.fit.rmse_validation_mps2, r.fit.eg_deg_per_g, r.fit.eg_se_deg_per_g, added.c_str(), r.delta_bic);
-    md += "| " + std::to_string(i) + " | " + r.model + " | " + Fmt("%.4f", r.fit.rmse_train_mps2) + " | " +
-          Fmt("%.4f", r.fit.rmse_validation_mps2) + " | " + Fmt("%.3f ± %.3f", r.fit.eg_deg_per_g, r.fit.eg_se_deg_per_g) +
-          " | " + added + " | " + (i ? Fmt("%.1f", r.delta_bic) : std::string("")) + " |\n";
-    j["ladder"].push_back({{"model", r.model}, {"added", r.added}, {"valid", r.fit.valid},
-                           {"rmse_train_mps2", r.fit.rmse_train_mps2}, {"rmse_validation_mps2", r.fit.rmse_validation_mps2},
-                           {"eg_deg_per_g", r.fit.eg_deg_per_g}, {"eg_se_deg_per_g", r.fit.eg_se_deg_per_g},
-                           {"added_parameters", added}, {"delta_bic", r.delta_bic}});
-  }
-  // Every candidate the ladder refitted, kept or not, and why.
-  if (!ladder.trials.empty()) {
-    std::printf("\ncandidates refitted by the ladder:\n");
-    md += "\n### Candidates refitted\n\n| rung | effect | held-out RMSE before → after | verdict |\n|---|---|---|---|\n";
-    j["trials"] = nlohmann::json::array();
-    for (const auto& t : ladder.trials) {
-      std::printf("  rung %d + %-16s %.4f -> %.4f  %s\n", t.step, t.effect.c_str(), t.held_out_before, t.held_out_after,
-                  t.why.c_str());
-      md += "| " + std::to_string(t.step) + " | " + t.effect + " | " + Fmt("%.4f", t.held_out_before) + " → " +
-            Fmt("%.4f", t.held_out_after) + " | " + t.why + " |\n";
-      j["trials"].push_back({{"step", t.step}, {"effect", t.effect}, {"accepted", t.accepted},
-                             {"held_out_before_mps2", t.held_out_before}, {"held_out_after_mps2", t.held_out_after},
-                             {"yaw_before_radps", t.yaw_before}, {"yaw_after_radps", t.yaw_after},
-                             {"delta_bic", t.delta_bic}, {"eg_shift_rel", t.eg_shift_rel},
-                             {"eg_shift_sigma", t.eg_shift_sigma}, {"why", t.why}});
-    }
-  }
-  // After the ladder: each output's held-out residual against its noise floor.
-  if (!ladder.verdicts.empty()) {
-    std::printf("\nafter the ladder (held-out residual against its noise floor, the white part):\n");
-    md += "\n## After the ladder\n\n";
-    j["verdicts"] = nlohmann::json::array();
-    for (const auto& v : ladder.verdicts) {
-      std::printf("  %s\n", v.text.c_str());
-      md += std::string("- ") + (v.unexplained ? "**" : "") + v.text + (v.unexplained ? "**" : "") + "\n";
-      j["verdicts"].push_back({{"output", v.output}, {"unit", v.unit}, {"rmse", v.rmse}, {"noise_floor", v.floor},
-                               {"ratio", v.ratio}, {"residuals", v.residuals}, {"unexplained", v.unexplained}, {"text", v.text}});
-    }
-  }
-  j["eg_unsettled"] = ladder.eg_unsettled;
-  if (!ladder.eg_unsettled.empty()) {
-    std::printf("  %s\n", ladder.eg_unsettled.c_str());
-    md += "- **" + ladder.eg_unsettled + "**\n";
-  }
+  report.md += "Speed scale: " + opt.speed_scale_evidence.note +
+               (opt.speed_scale_evidence.available ? " (a prior on speed_scale in every fit below; docs/two-outputs.md)" : "") + ".\n\n";
+  if (!ladder.diagnoses.empty()) ReportRanking(ladder.diagnoses.front(), report);
+  ReportLadder(ladder, library, report);
+  ReportVerdicts(ladder, report);
   const std::string out = a.out.empty() ? (fs::path(data->config.report_dir) / "diagnose").string() : a.out;
-  fs::create_directories(out);
-  WriteFileAtomically((fs::path(out) / "diagnosis.json").string(), j.dump(2) + "\n");
-  std::string why_not;
-  if (RunPlotScript("ladder", out, &why_not)) {
-    md += "\n![error ladder](error_ladder.png)\n";
-  } else {
-    md += "\nNo plot: " + why_not + "\n";
-    std::printf("plot not written: %s\n", why_not.c_str());
-  }
-  md += "\nFinal effects: " + JoinEffects(final_effects) + "\n";
-  WriteFileAtomically((fs::path(out) / "diagnosis.md").string(), md);
-  std::printf("\nfinal effects: %s\nreport: %s\n", JoinEffects(final_effects).c_str(), (fs::path(out) / "diagnosis.md").c_str());
-  {  // the one-page report of what diagnose knows (html_report.h)
-    HtmlReportInputs page;
-    page.diagnose_dir = out;
-    page.truth_yaml = TruthBeside(a.logs.empty() ? data->config.source.logs : a.logs);
-    page.title = "ndsid diagnose: " + data->outcome.name;
-    WriteCommandPage(out, page);
-  }
-
-  if (a.apply) {
-    const std::string text = ReadWholeFile(a.config);
-    std::string what, what_latency;
-    std::string edited = SetModelEffects(text, final_effects, a.config, &what);
-    if (!new_latency.empty()) edited = SetRoleLatencies(edited, new_latency, a.config, &what_latency);
-    if (edited == text) {
-      std::printf("--apply: %s unchanged, model.effects is already %s\n", a.config.c_str(), JoinEffects(final_effects).c_str());
-    } else {
-      WriteFileAtomically(a.config, edited);
-      std::printf("--apply: %s: %s%s\n", a.config.c_str(), what.c_str(),
-                  what_latency.empty() ? "" : ("; " + what_latency).c_str());
-    }
-  }
+  WriteReport(report, out, final_effects, a.logs.empty() ? data->config.source.logs : a.logs,
+              "ndsid diagnose: " + data->outcome.name);
+  if (a.apply) ApplyToConfig(a.config, final_effects, new_latency);
   return 0;
 }
 

@@ -1,0 +1,19 @@
+// EG of one half of the window (alternate training drives), fitted from the whole window's
+// estimate (src/identify/half_estimates.h): what the checks of the fit compare and what widens
+// the published sigma(EG) when the halves disagree.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+namespace ndsid::identify {
+
+struct HalfEstimate {
+  bool valid = false;
+  std::string reason;  // why not valid
+  double eg_rad_per_mps2 = 0, eg_se_rad_per_mps2 = 0;
+  int drives = 0;
+  size_t chunks = 0;
+};
+
+}  // namespace ndsid::identify

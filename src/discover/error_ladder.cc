@@ -1,0 +1,317 @@
+#include "error_ladder.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "ndsid/identify/chunks.h"
+#include "scoring_model.h"
+#include "trial_rules.h"
+#include "verdicts.h"
+
+namespace ndsid::discover {
+using identify::IdentificationResult;
+using identify::Identifier;
+
+namespace {
+
+// Why a refitted candidate was added or rejected (Trial::why); t carries its numbers.
+std::string ExplainTrial(const Trial& t, bool better, bool both, bool eg_moves, const std::string& contradicts,
+                         double min_relative_improvement) {
+  char why[320];
+  const double rel = 100 * (t.held_out_after / t.held_out_before - 1);
+  if (t.accepted) {
+    std::snprintf(why, sizeof why, "added: held-out RMSE %+.1f %%, dBIC %.1f", rel, t.delta_bic);
+  } else if (!better) {
+    std::snprintf(why, sizeof why, "rejected: held-out RMSE %+.1f %% (needs %+.1f %%%s)", rel, -100 * min_relative_improvement,
+                  both ? " on one output, the other <= +1 %" : "");
+  } else {
+    std::snprintf(why, sizeof why, "rejected: dBIC %+.1f (needs < 0) although the held-out RMSE fell %+.1f %%", t.delta_bic, rel);
+  }
+  std::string text = why;
+  if (!contradicts.empty()) text = "rejected: it contradicts its prior, " + contradicts;
+  if (both && !t.accepted) {
+    std::snprintf(why, sizeof why, "; EG %+.2f %% (%+.1f sigma)%s", 100 * t.eg_shift_rel, t.eg_shift_sigma,
+                  eg_moves ? ", held-out falls and EG moves: EG-relevant" : "");
+    text += why;
+  }
+  return text;
+}
+
+}  // namespace
+
+ErrorLadder::ErrorLadder(const config::IdentificationConfig& config, double wheelbase_m,
+                         const std::vector<std::string>& start_effects, const model::EffectLibrary& library,
+                         const identify::SegmentList& training, const identify::SegmentList& validation,
+                         const LadderOptions& options)
+    : config_(config),
+      wheelbase_m_(wheelbase_m),
+      library_(library),
+      training_in_(training),
+      validation_in_(validation),
+      options_(options),
+      ladder_config_(config),
+      effects_(start_effects),
+      current_(config, wheelbase_m, model::ModelSpec::FromNames(start_effects, library)),
+      training_(training),
+      validation_(validation) {
+  current_.set_standstill(options.standstill);
+}
+
+Ladder ErrorLadder::Climb() {
+  FitStartingModel();
+  if (StartingFitFailed()) {
+    ladder_.rungs.push_back({current_.spec().Describe(), "", fit_, 0.0});
+    ladder_.stop_reason = "the starting model could not be fitted: " + fit_.reason;
+    return std::move(ladder_);
+  }
+  if (options_.align) AlignInTime();
+  ladder_.rungs.push_back({current_.spec().Describe(), "", fit_, 0.0});
+  TrySpeedScaleFirst();
+  for (int step = 0; !StepLimitReached(step); ++step) {
+    if (!ClimbOneRung()) break;
+  }
+  if (ladder_.stop_reason.empty()) ladder_.stop_reason = "step limit reached";
+  Judge();
+  return std::move(ladder_);
+}
+
+void ErrorLadder::FitStartingModel() {
+  const bool given = options_.start_fit && options_.start_fit->valid && options_.start_fit->model == current_.spec().Describe();
+  fit_ = given ? *options_.start_fit : current_.Identify(training_in_, validation_in_, std::optional<std::vector<double>>{});
+  current_.set_drive_values(fit_.drive_values);
+}
+
+// Step 0: time alignment. The ladder then works on shifted copies of the data, unless the
+// starting model's refit on them fails (the data as recorded are kept).
+void ErrorLadder::AlignInTime() {
+  ladder_.before_alignment = fit_;
+  ladder_.alignment = EstimateRoleLatencies(current_, fit_.AllValues(), training_in_, options_.alignment);
+  for (const RoleLatency& l : ladder_.alignment) ladder_.aligned = ladder_.aligned || l.apply;
+  if (!ladder_.aligned) return;
+  aligned_training_ = AlignSegments(training_in_, ladder_.alignment);
+  aligned_validation_ = AlignSegments(validation_in_, ladder_.alignment);
+  training_ = identify::Pointers(aligned_training_);
+  validation_ = identify::Pointers(aligned_validation_);
+  const IdentificationResult refit = current_.Identify(training_, validation_, std::optional<std::vector<double>>(fit_.AllValues()));
+  if (refit.valid) {
+    fit_ = refit;
+    current_.set_drive_values(fit_.drive_values);
+  } else {  // keep the data as recorded
+    ladder_.aligned = false;
+    for (RoleLatency& l : ladder_.alignment) l.apply = false;
+    training_ = training_in_;
+    validation_ = validation_in_;
+  }
+}
+
+// The speed scale read from a_x (LadderOptions::speed_scale_evidence): a prior on speed_scale
+// for every fit below, and speed_scale itself first when the evidence says the speed is scaled.
+void ErrorLadder::TrySpeedScaleFirst() {
+  const stats::SpeedScaleEvidence& sse = options_.speed_scale_evidence;
+  const bool has_speed_prior = std::any_of(config_.priors.begin(), config_.priors.end(),
+                                           [](const config::ParameterPrior& p) { return p.name == "speed_scale"; });
+  if (!sse.available || has_speed_prior) return;
+  const double sd = sse.prior_sd;
+  ladder_config_.priors.push_back({"speed_scale", sse.scale, sd, "the speed signal against a_x (ndsid diagnose)"});
+  const auto& cands = options_.diagnosis.candidates;
+  const bool candidate = cands.empty() || std::find(cands.begin(), cands.end(), "speed_scale") != cands.end();
+  const bool in_model = std::find(effects_.begin(), effects_.end(), "speed_scale") != effects_.end();
+  if (!candidate || in_model || !library_.Find("speed_scale") || !(std::abs(sse.scale) > options_.speed_scale_add_sigma * sd)) return;
+  std::vector<std::string> trial = effects_;
+  trial.push_back("speed_scale");
+  const Refit r = RefitWith(trial);
+  const IdentificationResult& f2 = r.fit;
+  Trial t;
+  t.step = 0;
+  t.effect = "speed_scale";
+  t.held_out_before = HeldOutRmse(fit_);
+  char why[320];
+  if (!f2.valid) {
+    t.why = "fit not valid: " + f2.reason;
+  } else {
+    t.held_out_after = HeldOutRmse(f2);
+    const bool both = fit_.yaw_rate_output && f2.yaw_rate_output;
+    if (both) t.yaw_before = HeldOutYawRmse(fit_), t.yaw_after = HeldOutYawRmse(f2);
+    RecordEgShift(t, fit_, f2);
+    t.accepted = KeepsSpeedScale(t, both);
+    char yaw[48] = "";
+    if (both) std::snprintf(yaw, sizeof yaw, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
+    std::snprintf(why, sizeof why,
+                  "%s (evidence from a_x: %+.2f +- %.2f %%, prior sd %.2f %%): held-out RMSE %+.1f %%%s; EG %+.2f %% (%+.1f sigma)",
+                  t.accepted ? "added" : "rejected, a held-out RMSE rose by more than 1 %", 100 * sse.scale, 100 * sse.se,
+                  100 * sd, 100 * (t.held_out_after / t.held_out_before - 1), yaw, 100 * t.eg_shift_rel, t.eg_shift_sigma);
+    t.why = why;
+  }
+  spdlog::info("ladder: + speed_scale: {}", t.why);
+  ladder_.trials.push_back(t);
+  if (t.accepted) AddRung(r, "speed_scale", 0.0);
+}
+
+bool ErrorLadder::ClimbOneRung() {
+  const Diagnosis diagnosis = Diagnose(current_, fit_.AllValues(), training_, options_.diagnosis);
+  ladder_.diagnoses.push_back(diagnosis);
+  int tried = 0;
+  std::vector<EgRelevant> eg_relevant;
+  for (const CandidateScore& c : TrialOrder(diagnosis)) {
+    if (!IsTried(c, diagnosis, tried)) continue;
+    ++tried;
+    if (TryCandidate(c, eg_relevant)) return true;
+  }
+  if (!eg_relevant.empty()) {
+    AddEgRelevant(eg_relevant);
+    return true;
+  }
+  ladder_.stop_reason = StopReason(tried);
+  return false;
+}
+
+// The ranking's order, with alternatives: a global form (gyro_offset) whose per-drive form's
+// spread between drives is significant is followed at once by that per-drive form. The global
+// one is tried first: its refit is judged on held-out drives, and when the quantity differs
+// between drives a value for all makes those drives worse; then the per-drive form, which fits
+// theirs. (Ranked by its spread alone, the per-drive form can come too late: its spread is only
+// clean once the common value is fitted.)
+std::vector<CandidateScore> ErrorLadder::TrialOrder(const Diagnosis& diagnosis) const {
+  auto per_drive_form = [&](const std::string& e) {
+    for (const auto& p : library_.Get(e)->info().params)
+      if (p.per_drive) return true;
+    return false;
+  };
+  auto listed = [](const std::vector<CandidateScore>& order, const std::string& effect) {
+    return std::any_of(order.begin(), order.end(), [&](const CandidateScore& o) { return o.effect == effect; });
+  };
+  std::vector<CandidateScore> order;
+  for (const CandidateScore& c : diagnosis.ranked) {
+    if (listed(order, c.effect)) continue;
+    order.push_back(c);
+    if (!c.significant || per_drive_form(c.effect)) continue;
+    for (const CandidateScore& a : diagnosis.ranked) {
+      if (a.significant && per_drive_form(a.effect) && SharesParameter(library_, a.effect, c.effect) && !listed(order, a.effect))
+        order.push_back(a);
+    }
+  }
+  return order;
+}
+
+// Refitted: a significant candidate, or one whose predicted RMSE is large_effect_rmse_drop below
+// the rung's (judged on held-out data, not on a noisy z); three at most per rung.
+bool ErrorLadder::IsTried(const CandidateScore& c, const Diagnosis& diagnosis, int tried) const {
+  const bool large = c.rmse_predicted < (1.0 - options_.large_effect_rmse_drop) * diagnosis.rmse;
+  return (c.significant || large) && tried < 3;
+}
+
+// The current effects with `effect` added; an alternative of an effect in the model
+// (gyro_offset_per_drive for gyro_offset) replaces it.
+std::vector<std::string> ErrorLadder::EffectsWith(const std::string& effect) const {
+  std::vector<std::string> trial;
+  for (const std::string& e : effects_)
+    if (!SharesParameter(library_, e, effect)) trial.push_back(e);
+  trial.push_back(effect);
+  return trial;
+}
+
+// The model of `effects` refitted from the current fit, as every trial is.
+ErrorLadder::Refit ErrorLadder::RefitWith(const std::vector<std::string>& effects) const {
+  Identifier next(ladder_config_, wheelbase_m_, model::ModelSpec::FromNames(effects, library_));
+  next.set_standstill(options_.standstill);
+  next.set_drive_values(fit_.drive_values);  // per-drive parameters: start from the current values
+  IdentificationResult f2 =
+      next.Identify(training_, validation_, std::optional<std::vector<double>>(identify::Extend(current_.spec(), fit_.AllValues(), next.spec())));
+  return Refit{effects, std::move(next), std::move(f2)};
+}
+
+bool ErrorLadder::TryCandidate(const CandidateScore& c, std::vector<EgRelevant>& eg_relevant) {
+  const Refit r = RefitWith(EffectsWith(c.effect));
+  const IdentificationResult& f2 = r.fit;
+  Trial t;
+  t.step = static_cast<int>(ladder_.rungs.size()) - 1;  // the rung refitted on
+  t.effect = c.effect;
+  t.held_out_before = HeldOutRmse(fit_);
+  if (!f2.valid) {
+    t.why = "fit not valid: " + f2.reason;
+    ladder_.trials.push_back(t);
+    return false;
+  }
+  const double before = HeldOutRmse(fit_), after = HeldOutRmse(f2);
+  const bool both = BothOutputsScored(fit_, f2);
+  const BicChange bic = DeltaBic(fit_, f2, both);
+  spdlog::debug("ladder: + {}: effective samples {:.0f} (tau {:.1f})", c.effect, bic.n_eff,
+                static_cast<double>(f2.residuals_train) / std::max(bic.n_eff, 1.0));
+  const double dbic = bic.delta;
+  double yb = 0, ya = 0;
+  if (both) {
+    yb = HeldOutYawRmse(fit_), ya = HeldOutYawRmse(f2);
+    spdlog::info("ladder: + {}: held-out yaw-rate RMSE {:.4f} -> {:.4f} deg/s", c.effect, yb * 180 / M_PI, ya * 180 / M_PI);
+  }
+  bool better = HeldOutImproves(before, after, yb, ya, both, options_.min_relative_improvement);
+  spdlog::info("ladder: + {}: held-out RMSE {:.4f} -> {:.4f}, dBIC {:.1f}", c.effect, before, after, dbic);
+  t.held_out_after = after;
+  t.delta_bic = dbic;
+  if (both) t.yaw_before = yb, t.yaw_after = ya;
+  const std::string contradicts = PriorContradiction(fit_, f2, ladder_config_.priors);
+  if (!contradicts.empty()) better = false;
+  t.accepted = better && dbic < 0;
+  RecordEgShift(t, fit_, f2);
+  const bool eg_moves = both && !t.accepted && contradicts.empty() && IsEgRelevant(t, options_);
+  t.why = ExplainTrial(t, better, both, eg_moves, contradicts, options_.min_relative_improvement);
+  ladder_.trials.push_back(t);
+  if (eg_moves) eg_relevant.push_back({ladder_.trials.size() - 1, dbic, r});
+  if (!t.accepted) return false;
+  AddRung(r, c.effect, dbic);
+  return true;
+}
+
+// No candidate met the RMSE rule; one moves EG far beyond its uncertainty while both held-out
+// errors fall. Members of a confounded group (roll, the sensor scales) can all pass; the one the
+// training data of both outputs support most (lowest BIC) is added.
+void ErrorLadder::AddEgRelevant(const std::vector<EgRelevant>& eg_relevant) {
+  const auto best = std::min_element(eg_relevant.begin(), eg_relevant.end(),
+                                     [](const EgRelevant& a, const EgRelevant& b) { return a.dbic < b.dbic; });
+  Trial& t = ladder_.trials[best->trial];
+  t.accepted = true;
+  char why[320];
+  std::snprintf(why, sizeof why, "added (EG-relevant): held-out RMSE %+.1f %%, yaw rate %+.1f %%, dBIC %.1f; EG %+.2f %% (%+.1f sigma)",
+                100 * (t.held_out_after / t.held_out_before - 1), 100 * (t.yaw_after / t.yaw_before - 1), t.delta_bic,
+                100 * t.eg_shift_rel, t.eg_shift_sigma);
+  t.why = why;
+  spdlog::info("ladder: + {}: {}", t.effect, t.why);
+  AddRung(best->refit, t.effect, t.delta_bic);
+}
+
+// A refit becomes the ladder's next rung.
+void ErrorLadder::AddRung(const Refit& refit, const std::string& added, double dbic) {
+  effects_ = refit.effects;
+  current_ = refit.model;
+  fit_ = refit.fit;
+  current_.set_drive_values(fit_.drive_values);
+  ladder_.rungs.push_back({current_.spec().Describe(), added, fit_, dbic});
+}
+
+std::string ErrorLadder::StopReason(int tried) const {
+  if (tried == 0) return "no significant candidate left";
+  std::string reason = "no candidate improved the held-out RMSE enough (tried:";
+  for (const Trial& t : ladder_.trials)
+    if (t.step == static_cast<int>(ladder_.rungs.size()) - 1) reason += " " + t.effect + (&t == &ladder_.trials.back() ? "" : ",");
+  return reason + ")";
+}
+
+void ErrorLadder::Judge() {
+  ladder_.eg_unsettled = DescribeUnsettledEg(ladder_, options_);
+  if (!ladder_.eg_unsettled.empty()) spdlog::warn("ladder: {}", ladder_.eg_unsettled);
+  const identify::SegmentList& judged = validation_.empty() ? training_ : validation_;
+  ladder_.verdicts = JudgeOutputs(current_, fit_.AllValues(), judged, fit_.yaw_rate_output, options_.unexplained_ratio,
+                                  YawShiftSamples(ladder_.alignment, judged));
+  for (const OutputVerdict& v : ladder_.verdicts) spdlog::info("ladder: {}", v.text);
+}
+
+Ladder ClimbErrorLadder(const config::IdentificationConfig& config, double wheelbase_m,
+                        const std::vector<std::string>& start_effects, const model::EffectLibrary& library,
+                        const identify::SegmentList& training, const identify::SegmentList& validation,
+                        const LadderOptions& options) {
+  return ErrorLadder(config, wheelbase_m, start_effects, library, training, validation, options).Climb();
+}
+
+}  // namespace ndsid::discover

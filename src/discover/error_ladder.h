@@ -1,0 +1,85 @@
+// The error ladder (diagnosis.h, ClimbErrorLadder) as an algorithm with named state and steps,
+// in the manner of Ceres's TrustRegionMinimizer:
+//   FitStartingModel   rung 0: the starting model (or the caller's fit of it)
+//   AlignInTime        step 0: the roles' latencies (alignment.h); the data shifted, rung 0 refitted
+//   TrySpeedScaleFirst the speed scale read from a_x: a prior on every fit, speed_scale itself first
+//   ClimbOneRung       diagnose (the ranking), refit the best candidates one by one (TryCandidate,
+//                      judged by trial_rules.h), add the first that passes, else the EG-relevant one
+//   Judge              after the last rung: EG settled?, each output against its noise floor (verdicts.h)
+// Every stopping rule is its own predicate: StartingFitFailed, StepLimitReached, and ClimbOneRung's
+// false (nothing added: StopReason says why).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ndsid/discover/diagnosis.h"
+
+namespace ndsid::discover {
+
+class ErrorLadder {
+ public:
+  ErrorLadder(const config::IdentificationConfig& config, double wheelbase_m, const std::vector<std::string>& start_effects,
+              const model::EffectLibrary& library, const identify::SegmentList& training,
+              const identify::SegmentList& validation, const LadderOptions& options);
+
+  // Runs the steps above and returns the ladder.
+  Ladder Climb();
+
+ private:
+  // A refit of the current model with one more effect.
+  struct Refit {
+    std::vector<std::string> effects;   // the refitted model's effects
+    identify::Identifier model;         // the refitted model (its drive values: the current fit's)
+    identify::IdentificationResult fit; // its fit, started from the current fit
+  };
+  // A candidate that passed only the EG-relevant rule, kept until every candidate of the rung is
+  // tried: of several, the one with the lowest BIC change is added.
+  struct EgRelevant {
+    size_t trial;  // index into ladder_.trials
+    double dbic;   // both outputs' BIC change: the strongest evidence wins
+    Refit refit;   // the refit, added as it is
+  };
+
+  // The steps.
+  void FitStartingModel();
+  void AlignInTime();
+  void TrySpeedScaleFirst();
+  bool ClimbOneRung();  // true when a rung was added
+  void Judge();
+
+  // Within a rung.
+  std::vector<CandidateScore> TrialOrder(const Diagnosis& diagnosis) const;
+  bool IsTried(const CandidateScore& c, const Diagnosis& diagnosis, int tried) const;
+  std::vector<std::string> EffectsWith(const std::string& effect) const;
+  Refit RefitWith(const std::vector<std::string>& effects) const;
+  // Refits with c.effect and records the trial; true when it is added at once. An EG-relevant
+  // refit that is not is appended to `eg_relevant`.
+  bool TryCandidate(const CandidateScore& c, std::vector<EgRelevant>& eg_relevant);
+  void AddEgRelevant(const std::vector<EgRelevant>& eg_relevant);
+  void AddRung(const Refit& refit, const std::string& added, double dbic);
+
+  // Stopping rules.
+  bool StartingFitFailed() const { return !fit_.valid; }
+  bool StepLimitReached(int step) const { return step >= options_.max_steps; }
+  std::string StopReason(int tried) const;  // nothing added on the current rung
+
+  // The inputs, as given.
+  const config::IdentificationConfig& config_;  // the identification's configuration
+  const double wheelbase_m_;                    // l [m]
+  const model::EffectLibrary& library_;         // every model is built from it (the configuration's effects)
+  const identify::SegmentList& training_in_;    // the data as recorded
+  const identify::SegmentList& validation_in_;
+  const LadderOptions& options_;
+
+  // The state that travels between the steps.
+  config::IdentificationConfig ladder_config_;  // config_ plus the speed-scale prior: every refit's
+  std::vector<std::string> effects_;            // the current model's effects (the last rung's)
+  identify::Identifier current_;                // the current model, set to fit_'s drive values
+  identify::IdentificationResult fit_;          // its fit on training_ and validation_
+  std::vector<stats::Segment> aligned_training_, aligned_validation_;  // step 0's shifted copies
+  identify::SegmentList training_, validation_;  // what every fit reads: as recorded or step 0's copies
+  Ladder ladder_;                               // the result, built rung by rung
+};
+
+}  // namespace ndsid::discover

@@ -1,0 +1,92 @@
+#include "trial_rules.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace ndsid::discover {
+
+double HeldOutRmse(const identify::IdentificationResult& fit) {
+  return fit.rmse_validation_mps2 >= 0 ? fit.rmse_validation_mps2 : fit.rmse_train_mps2;
+}
+
+double HeldOutYawRmse(const identify::IdentificationResult& fit) {
+  return fit.rmse_validation_yaw_radps >= 0 ? fit.rmse_validation_yaw_radps : fit.rmse_train_yaw_radps;
+}
+
+bool BothOutputsScored(const identify::IdentificationResult& before, const identify::IdentificationResult& after) {
+  return before.yaw_rate_output && after.yaw_rate_output && before.rmse_train_yaw_radps > 0 && after.rmse_train_yaw_radps > 0;
+}
+
+namespace {
+
+// The integrated autocorrelation time of residuals with noise level sigma^2 tau and RMSE sigma
+// (at least 1).
+double AutocorrelationTime(double noise_level, double rmse) {
+  const double t = rmse > 0 ? noise_level / (rmse * rmse) : 0.0;
+  return std::isfinite(t) && t >= 1.0 ? t : 1.0;
+}
+
+}  // namespace
+
+BicChange DeltaBic(const identify::IdentificationResult& before, const identify::IdentificationResult& after, bool both) {
+  const auto& fit = before;
+  const auto& f2 = after;
+  BicChange b;
+  const double n_eff = static_cast<double>(f2.residuals_train) / AutocorrelationTime(f2.noise_level_a_y, f2.rmse_train_mps2);
+  const double n_eff_r =
+      both ? static_cast<double>(f2.residuals_train_yaw) / AutocorrelationTime(f2.noise_level_yaw_rate, f2.rmse_train_yaw_radps)
+           : 0.0;
+  double dbic = n_eff * std::log((f2.rmse_train_mps2 * f2.rmse_train_mps2) / (fit.rmse_train_mps2 * fit.rmse_train_mps2)) +
+                (static_cast<double>(f2.NumEstimated()) - static_cast<double>(fit.NumEstimated())) * std::log(std::max(n_eff + n_eff_r, 2.0));
+  if (both) dbic += n_eff_r * std::log((f2.rmse_train_yaw_radps * f2.rmse_train_yaw_radps) / (fit.rmse_train_yaw_radps * fit.rmse_train_yaw_radps));
+  b.delta = dbic;
+  b.n_eff = n_eff;
+  return b;
+}
+
+bool HeldOutImproves(double before, double after, double yaw_before, double yaw_after, bool both,
+                     double min_relative_improvement) {
+  const bool a_y_falls = after < before * (1.0 - min_relative_improvement);
+  if (!both) return a_y_falls;
+  return (a_y_falls && yaw_after < 1.01 * yaw_before) ||
+         (yaw_after < yaw_before * (1.0 - min_relative_improvement) && after < 1.01 * before);
+}
+
+std::string PriorContradiction(const identify::IdentificationResult& before, const identify::IdentificationResult& after,
+                               const std::vector<config::ParameterPrior>& priors) {
+  std::string contradicts;
+  for (const identify::ParameterEstimate& p : after.effect_params) {
+    for (const config::ParameterPrior& pr : priors) {
+      if (pr.name != p.name || !(pr.sd > 0) || std::abs(p.value - pr.value) <= 3 * pr.sd) continue;
+      bool before_too = false;  // only the parameters the candidate adds
+      for (const identify::ParameterEstimate& q : before.effect_params) before_too = before_too || q.name == p.name;
+      if (before_too) continue;
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "%s = %.4g lies %.1f prior sd from its prior %.4g +- %.2g (%s)", p.name.c_str(), p.value,
+                    std::abs(p.value - pr.value) / pr.sd, pr.value, pr.sd, pr.location.c_str());
+      contradicts = buf;
+    }
+  }
+  return contradicts;
+}
+
+void RecordEgShift(Trial& t, const identify::IdentificationResult& before, const identify::IdentificationResult& after) {
+  const auto& fit = before;
+  const auto& f2 = after;
+  t.eg_shift_rel = fit.eg_rad_per_mps2 != 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / std::abs(fit.eg_rad_per_mps2) : 0.0;
+  t.eg_shift_sigma = f2.eg_se_rad_per_mps2 > 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / f2.eg_se_rad_per_mps2 : 0.0;
+}
+
+bool IsEgRelevant(const Trial& t, const LadderOptions& options) {
+  const double before = t.held_out_before, after = t.held_out_after, yb = t.yaw_before, ya = t.yaw_after;
+  const double fall = std::max(1.0 - after / before, 1.0 - ya / yb);
+  return after <= before && ya <= yb && fall >= options.eg_relevant_min_improvement && t.delta_bic < 0 &&
+         std::abs(t.eg_shift_sigma) > options.eg_relevant_shift_sigma && std::abs(t.eg_shift_rel) > options.eg_relevant_shift_rel;
+}
+
+bool KeepsSpeedScale(const Trial& t, bool both) {
+  return t.held_out_after <= 1.01 * t.held_out_before && (!both || t.yaw_after <= 1.01 * t.yaw_before);
+}
+
+}  // namespace ndsid::discover

@@ -1,0 +1,57 @@
+// The rules that decide whether the ladder adds a refitted candidate (LadderOptions), each its
+// own function: a new rule for adding an effect goes here, and is called from
+// ErrorLadder::TryCandidate (error_ladder.cc).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "ndsid/config/config.h"
+#include "ndsid/discover/diagnosis.h"
+#include "ndsid/identify/identifier.h"
+
+namespace ndsid::discover {
+
+// The a_y RMSE the ladder judges a fit by: held-out, or the training one when nothing is held out.
+double HeldOutRmse(const identify::IdentificationResult& fit);
+// The same for the yaw rate [rad/s].
+double HeldOutYawRmse(const identify::IdentificationResult& fit);
+
+// Both fits score both outputs with a training RMSE each: the BIC and the RMSE rule take both.
+bool BothOutputsScored(const identify::IdentificationResult& before, const identify::IdentificationResult& after);
+
+// The BIC's change from `before` to `after`, with an effective sample size (residuals are
+// autocorrelated): n_eff = n / tau, tau the integrated autocorrelation time of the refit's own
+// residuals (the one noise estimate, ResidualNoiseLevel = sigma^2 tau, as the covariance uses it);
+// with two outputs (`both`) each output's term, on its own residuals.
+struct BicChange {
+  double delta = 0;  // negative: `after` better
+  double n_eff = 0;  // a_y's effective samples (logged)
+};
+BicChange DeltaBic(const identify::IdentificationResult& before, const identify::IdentificationResult& after, bool both);
+
+// Effect size on held-out data (the RMSE rule): a_y's held-out RMSE falls by min_relative_improvement;
+// with both outputs, one output falls by that and the other does not rise by more than 1 % (a
+// gyro error shows in the yaw rate, a roll in a_y). yaw_*: held-out yaw-rate RMSEs (both only).
+bool HeldOutImproves(double before, double after, double yaw_before, double yaw_after, bool both,
+                     double min_relative_improvement);
+
+// A prior on a parameter the candidate adds (model.priors, or the speed scale read from a_x) that
+// the refit lands more than 3 prior sd from: it stands in for another effect. The contradiction in
+// words, "" when there is none.
+std::string PriorContradiction(const identify::IdentificationResult& before, const identify::IdentificationResult& after,
+                               const std::vector<config::ParameterPrior>& priors);
+
+// How far a refit moves EG from the rung's fit: relative, and in the refit's sigma (Trial).
+void RecordEgShift(Trial& t, const identify::IdentificationResult& before, const identify::IdentificationResult& after);
+
+// The EG-relevant rule (LadderOptions): both outputs, neither held-out RMSE rises, one falls by
+// eg_relevant_min_improvement, the BIC falls, and EG moves by more than eg_relevant_shift_sigma of
+// its standard error and eg_relevant_shift_rel of itself. `t` carries the held-out RMSEs, the BIC
+// change and the EG shift.
+bool IsEgRelevant(const Trial& t, const LadderOptions& options);
+
+// The speed scale read from a_x is added first when neither held-out RMSE rises by more than 1 %.
+bool KeepsSpeedScale(const Trial& t, bool both);
+
+}  // namespace ndsid::discover

@@ -1,0 +1,93 @@
+// The keys of the validity work: a role's low-pass, the vehicle's optional data-sheet values,
+// the limits of the fit's checks, and the parameter box a config without one gets.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "minimal_config.h"
+#include "ndsid/config/config.h"
+#include "ndsid/config/parameter_box.h"
+
+namespace ndsid::config {
+namespace {
+
+using testing::ErrorOf;
+using testing::kMinimal;
+
+std::string With(std::string yaml, const std::string& what, const std::string& by) {
+  yaml.replace(yaml.find(what), what.size(), by);
+  return yaml;
+}
+
+// Catches: lowpass_hz not read, or a cutoff the sync grid cannot run accepted.
+TEST(ConfigConditioning, ReadsALowPassAndRefusesOneAboveAQuarterOfTheSyncRate) {
+  const std::string y = With(kMinimal, "sign: -1}", "sign: -1, lowpass_hz: 4}");
+  const Config c = ParseConfig(y, "car.yaml");
+  EXPECT_DOUBLE_EQ(c.role(Role::kLateralAcceleration)->lowpass_hz, 4.0);
+  EXPECT_DOUBLE_EQ(c.role(Role::kSpeed)->lowpass_hz, 0.0);  // none unless asked
+  const std::string fast = With(kMinimal, "sign: -1}", "sign: -1, lowpass_hz: 30}") + "sync: {rate_hz: 100}\n";
+  const std::string e = ErrorOf(fast);
+  EXPECT_NE(e.find("signals.lateral_acceleration.lowpass_hz"), std::string::npos) << e;
+  EXPECT_NE(e.find("quarter of sync.rate_hz (100 Hz)"), std::string::npos) << e;
+  EXPECT_EQ(ErrorOf(With(kMinimal, "sign: -1}", "sign: -1, lowpass_hz: 20}") + "sync: {rate_hz: 100}\n"), "");
+  EXPECT_NE(ErrorOf(With(kMinimal, "sign: -1}", "sign: -1, lowpass_hz: -1}")).find("out of range"), std::string::npos);
+}
+
+// Catches: one axle load without the other, or loads that contradict the mass, taken silently.
+TEST(ConfigConditioning, AxleLoadsComeInPairsThatAddUpToTheMass) {
+  const std::string pair = With(kMinimal, "mass_kg: 1500}", "mass_kg: 1500, front_axle_load_kg: 870, rear_axle_load_kg: 630}");
+  const Config c = ParseConfig(pair, "car.yaml");
+  EXPECT_DOUBLE_EQ(c.vehicle.front_axle_load_kg, 870);
+  EXPECT_DOUBLE_EQ(c.vehicle.rear_axle_load_kg, 630);
+  const std::string one = With(kMinimal, "mass_kg: 1500}", "mass_kg: 1500, front_axle_load_kg: 870}");
+  EXPECT_NE(ErrorOf(one).find("give both axle loads or neither"), std::string::npos) << ErrorOf(one);
+  const std::string off = With(kMinimal, "mass_kg: 1500}", "mass_kg: 1500, front_axle_load_kg: 1300, rear_axle_load_kg: 900}");
+  EXPECT_NE(ErrorOf(off).find("more than 15 % from mass_kg"), std::string::npos) << ErrorOf(off);
+}
+
+// Catches: a config without identification.parameters pinned to another car's box (the
+// example car's box made every parameter of a heavier car end on a bound).
+TEST(ConfigConditioning, WithoutABoxEachParameterGetsThisCarsPhysicalBox) {
+  const std::string van = With(kMinimal, "wheelbase_m: 2.6, mass_kg: 1500", "wheelbase_m: 3.66, mass_kg: 3500");
+  const Config c = ParseConfig(van, "car.yaml");
+  VehicleConfig v;
+  v.wheelbase_m = 3.66;
+  v.mass_kg = 3500;
+  const auto box = PhysicalParameterBox(v);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_DOUBLE_EQ(c.identification.params[i].lower, box[i].lower) << i;
+    EXPECT_DOUBLE_EQ(c.identification.params[i].upper, box[i].upper) << i;
+    EXPECT_DOUBLE_EQ(c.identification.params[i].initial, box[i].initial) << i;
+  }
+  EXPECT_TRUE(c.identification.params[0].fixed);
+  EXPECT_DOUBLE_EQ(c.identification.params[0].initial, 3500);
+  // lv's box is this car's: from a quarter to three quarters of its wheelbase.
+  EXPECT_NEAR(c.identification.params[4].lower, 0.25 * 3.66, 1e-9);
+  EXPECT_NEAR(c.identification.params[4].upper, 0.75 * 3.66, 1e-9);
+  // A parameter the config states keeps its own box, its initial value the middle of it; the
+  // others stay physical.
+  const Config own = ParseConfig(van + "identification:\n  parameters:\n    lv: {min: 1.5, max: 1.9}\n", "car.yaml");
+  EXPECT_DOUBLE_EQ(own.identification.params[4].lower, 1.5);
+  EXPECT_DOUBLE_EQ(own.identification.params[4].initial, 1.7);
+  EXPECT_DOUBLE_EQ(own.identification.params[2].upper, box[2].upper);
+}
+
+// Catches: a limit of the fit's checks not read, or an absurd one accepted.
+TEST(ConfigConditioning, ReadsTheLimitsOfTheFitsChecks) {
+  const Config c = ParseConfig(std::string(kMinimal) +
+                                   "plausibility: {rmse_floor_ratio_max: 8, rmse_spread_ratio_max: 0.4, "
+                                   "bound_shift_sigma_max: 2, steady_state_z_max: 4, steady_state_rel_bias: 0.2, "
+                                   "halves_z_max: 5}\n",
+                               "car.yaml");
+  EXPECT_DOUBLE_EQ(c.plausibility.rmse_floor_ratio_max, 8);
+  EXPECT_DOUBLE_EQ(c.plausibility.rmse_spread_ratio_max, 0.4);
+  EXPECT_DOUBLE_EQ(c.plausibility.bound_shift_sigma_max, 2);
+  EXPECT_DOUBLE_EQ(c.plausibility.steady_state_z_max, 4);
+  EXPECT_DOUBLE_EQ(c.plausibility.steady_state_rel_bias, 0.2);
+  EXPECT_DOUBLE_EQ(c.plausibility.halves_z_max, 5);
+  const std::string e = ErrorOf(std::string(kMinimal) + "plausibility: {rmse_floor_ratio_max: 0.5}\n");
+  EXPECT_NE(e.find("plausibility.rmse_floor_ratio_max: value 0.5 out of range"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace ndsid::config
