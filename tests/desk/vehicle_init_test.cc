@@ -211,7 +211,7 @@ TEST_F(SimulatedBus, WrittenConfigLoadsAndListsRolesNotFound) {
   const InitResult r = Propose(dbc, log_);
   ASSERT_TRUE(r.MandatoryFound());
   EXPECT_FALSE(r.Find(Role::kLongitudinalAcceleration)->found);
-  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test"});
+  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", {}});
   EXPECT_NE(yaml.find("# longitudinal_acceleration: not found: no varying signal named like"), std::string::npos) << yaml;
   const fs::path out = dir_ / "vehicle.yaml";
   std::ofstream(out) << yaml;
@@ -240,7 +240,7 @@ TEST_F(SimulatedBus, WithoutAYawRateTheConfigFitsAyAlone) {
   ASSERT_TRUE(r.MandatoryFound());
   ASSERT_FALSE(r.Find(Role::kYawRate)->found);
   const fs::path out = dir_ / "no_yaw.yaml";
-  std::ofstream(out) << VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test"});
+  std::ofstream(out) << VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", {}});
   const config::Config c = config::LoadConfig(out.string());
   EXPECT_FALSE(c.identification.yaw_rate_output);
   EXPECT_TRUE(c.model_effects.empty());
@@ -261,7 +261,7 @@ TEST_F(SimulatedBus, FindsCoarsePlusFineSteeringPair) {
   const RoleProposal* p = r.Find(Role::kSteeringWheelAngle);
   EXPECT_TRUE(p->multi_signal);
   EXPECT_EQ(p->expression, "STEERING_SENSOR.SteeringWheelAngle + STEERING_SENSOR.SteeringAngleFine");
-  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, "split.dbc", "test"});
+  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, "split.dbc", "test", "sim", {}});
   EXPECT_NE(yaml.find("  steering_wheel_angle: {expr: \"STEERING_SENSOR.SteeringWheelAngle + STEERING_SENSOR.SteeringAngleFine\", "
                       "unit: deg, sign: 1, timeout_s: 0.1}"),
             std::string::npos)
@@ -316,7 +316,7 @@ TEST(VehicleInitRealData, FindsTheRav4RolesAndSplitSteeringAngle) {
     EXPECT_DOUBLE_EQ(h->scale_to_si, p->sign * config::UnitToSi(role, p->unit)) << config::RoleKey(role);
   }
   // The role expression is written as such.
-  const std::string yaml = VehicleConfigYaml(r, {"rav4", log, dbc, "test"});
+  const std::string yaml = VehicleConfigYaml(r, {"rav4", log, dbc, "test", "rav4", {}});
   EXPECT_NE(yaml.find("steering_wheel_angle: {expr: \"STEER_ANGLE_SENSOR.STEER_ANGLE + STEER_ANGLE_SENSOR.STEER_FRACTION\", "
                       "unit: deg, sign: 1, timeout_s: "),
             std::string::npos)
