@@ -42,6 +42,12 @@ BusData CollectSignals(const dbc::Database& db, can::FrameLog& log, const std::s
 
 enum class RoleKind { kSteer, kSpeed, kLatAccel, kYawRate, kLongAccel, kWheelSpeed };
 
+// The corner a wheel signal's name (or its message's) gives: 0 front left, 1 front right, 2 rear
+// left, 3 rear right (FL, VL, LF, "links vorne", "FrontLeft" ...); -1 none.
+int WheelCorner(const dbc::Message& m, const dbc::Signal& s);
+// A rotational speed's unit: rpm, 1/min, U/min, min^-1 ...
+bool IsRpmUnit(const std::string& unit);
+
 // A role candidate: one signal, or several of one message combined.
 struct Source {
   enum class Combine { kSingle, kSum, kDifference, kSignMagnitude };
@@ -52,6 +58,7 @@ struct Source {
   std::string comment;     // DBC comment of the first term (and its message)
   int name_score = 0;
   std::string pair_evidence;  // why several signals were combined
+  int corner = -1;            // wheel speeds: WheelCorner
 };
 
 // Varying signals named like `kind`, best names first, at most `top`; coarse+fine and
@@ -123,6 +130,23 @@ void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, const S
 // result's longitudinal-acceleration role.
 void ProposeLongitudinal(const BusData& data, Grid& grid, const std::vector<double>& v_si, const std::vector<Source>& lon,
                          InitResult& result);
+
+// The wheel speeds by physics: per corner the candidate that follows the vehicle speed best,
+// kept when its correlation while moving is above 0.95 (at least two corners, one kind of unit).
+struct WheelChoice {
+  std::vector<Source> wheels;  // the kept ones, FL FR RL RR order
+  std::vector<double> corr;    // each one's correlation with the vehicle speed
+  bool rpm = false;            // rotational speeds (1/min): their scale is a rolling radius
+  double ratio = NAN;          // vehicle speed / the wheels' mean, both in bus units (median while moving)
+  double factor = NAN;         // the speed's unit factor to SI that the wheels' DBC speed unit implies
+  std::string text;            // the evidence ("" when no wheels were kept)
+};
+WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, const Source& speed, double v99);
+
+// The optional wheel_speed role: the kept wheels' mean, its scale regressed on the vehicle speed
+// v_si [m/s] on the grid (a unit, or a factor and the speed's unit: 1/min with a rolling radius).
+void ProposeWheelSpeed(const BusData& data, Grid& grid, const WheelChoice& wheels, const std::vector<double>& v_si,
+                       InitResult& result);
 
 // The proposal of role r (result.roles is indexed by Role for the roles up to a_x).
 inline RoleProposal& RoleOf(InitResult& result, config::Role r) { return result.roles[static_cast<size_t>(r)]; }
