@@ -325,9 +325,9 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
   for (double x : k.v_si) moving += std::isfinite(x) && x > kMoving_mps;
   result.moving_s = static_cast<double>(moving) / kGrid_hz;
 
-  // 2. Steering: r = g v d / (1 + v^2/v_ch^2) at low lateral acceleration.
+  // 2. Steering: kappa (1 + v^2/v_ch^2) = g d_sw with kappa = r / v, over every moving sample.
   if (yaw_found && !c.steer.empty()) {
-    ProposeSteering(data, grid, *best.r, *best.a, k.fr * k.sr, k.fa, k.v_si, c.steer, options, result);
+    ProposeSteering(data, grid, *best.r, k.fr * k.sr, k.v_si, c.steer, options, result);
   } else if (!RoleOf(result, Role::kSteeringWheelAngle).found && RoleOf(result, Role::kSteeringWheelAngle).reason.empty()) {
     RoleOf(result, Role::kSteeringWheelAngle).reason = "needs the speed and yaw rate (r = v d_sw / (is l)) or a_y (a_y = v^2 d_sw / (is l)) confirmed first";
   }
@@ -335,7 +335,10 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
   // 3. a_x = dv/dt.
   ProposeLongitudinal(data, grid, k.v_si, c.lon, result);
 
-  // 4. The wheel speeds that follow the chosen speed, their scale from it (may reallocate result.roles).
+  // 4. Conditioning: a_y and the yaw rate low-passed where they are noisier than the dynamics.
+  ProposeConditioning(data, c.lat, c.yaw, k.v_si, result);
+
+  // 5. The wheel speeds that follow the chosen speed, their scale from it (may reallocate result.roles).
   if (!k.v_si.empty()) {
     for (const auto& v : c.speed) {
       if (v.expression != RoleOf(result, Role::kSpeed).expression) continue;

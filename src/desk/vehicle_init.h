@@ -39,6 +39,7 @@ struct RoleProposal {
   double period_s = 0;          // measured median message period
   double timeout_s = 0.1;       // 10 periods, at least 0.1 s
   double confidence = 0;        // 0..1: the smallest of the choice's, the unit's and the sign's
+  double lowpass_hz = 0;        // conditioning for a noisy sensor (signals.<role>.lowpass_hz; 0 = none)
   std::vector<std::string> evidence;  // one line each: correlation, fitted gain, ratio, posterior
   std::string reason;                 // why the role was not found
 };

@@ -99,7 +99,9 @@ std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in
     else y << "message: " << p.message << ", signal: " << p.signal;
     y << ", unit: " << p.unit;
     if (p.role != Role::kSpeed || p.sign != 1) y << ", sign: " << p.sign;
-    y << ", timeout_s: " << Number(p.timeout_s) << "}\n";
+    y << ", timeout_s: " << Number(p.timeout_s);
+    if (p.lowpass_hz > 0) y << ", lowpass_hz: " << Number(p.lowpass_hz);
+    y << "}\n";
   }
   y << "\ngate:\n"
     << "  min_drive_km: 2.0           # drives shorter than this are not used (the study's rule) [km]\n";
@@ -133,8 +135,10 @@ std::string InitSummary(const InitResult& result, const VehicleSheet& vehicle) {
       o << fmt::format("{:<26} NOT FOUND{}: {}\n", config::RoleKey(p.role), mandatory ? " (required)" : "", p.reason);
       continue;
     }
-    o << fmt::format("{:<26} {}  unit {}  sign {:+d}  timeout {:g} s  confidence {:.0f} % ({})\n", config::RoleKey(p.role),
-                     p.expression, p.unit, p.sign, p.timeout_s, 100 * p.confidence, Sureness(p.confidence));
+    o << fmt::format("{:<26} {}  unit {}  sign {:+d}  timeout {:g} s{}  confidence {:.0f} % ({})\n", config::RoleKey(p.role),
+                     p.expression, p.unit, p.sign, p.timeout_s,
+                     p.lowpass_hz > 0 ? fmt::format("  lowpass {:g} Hz", p.lowpass_hz) : "", 100 * p.confidence,
+                     Sureness(p.confidence));
     for (const auto& e : p.evidence) o << "    " << e << "\n";
   }
   for (const auto& n : result.notes) o << "note: " << n << "\n";
