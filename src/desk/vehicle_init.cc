@@ -107,14 +107,18 @@ double UnitDistance(double gain) {
 
 // A scaled copy of the chosen speed (a speedometer's, a few % high) follows a_y = k v r as well:
 // among the copies (correlation above 0.995 with it), the speed is the one whose gain lies
-// nearest a unit combination's prediction (a_y = v r holds in SI). Says so in `evidence`.
+// nearest a unit combination's prediction (a_y = v r holds in SI), when nearer by a margin the
+// data resolve. Says so in `evidence`.
 void PreferUnscaledSpeed(Grid& grid, const RoleCandidates& c, Triple& best, std::string& evidence) {
   if (best.v == nullptr) return;
   // a_y = k v r down to a tenth of the top speed: at higher speeds the body's sideslip rate
   // (a_y = v (r + beta')) tilts k by a percent or two, as much as a speedometer's bias.
   auto gain = [&](const Source& v) { return LinearFit(SpeedTimesYaw(grid, v, *best.r, 0.1), grid.Of(*best.a)); };
   const std::vector<double> chosen = grid.Of(*best.v);
-  double dist = UnitDistance(gain(*best.v).gain);
+  const Fit own = gain(*best.v);
+  double dist = UnitDistance(own.gain);
+  // A copy wins only by more than the model's percent and twice the gain's standard error.
+  const double margin = std::max(0.01, 2.0 * own.gain_se / std::fabs(own.gain));
   for (const auto& v : c.speed) {
     if (&v == best.v) continue;
     const Fit copy = LinearFit(chosen, grid.Of(v));
@@ -122,12 +126,12 @@ void PreferUnscaledSpeed(Grid& grid, const RoleCandidates& c, Triple& best, std:
     const Fit f = gain(v);
     if (f.n < 100 || std::fabs(f.corr) < std::fabs(best.fit.corr) - 0.02) continue;
     const double d = UnitDistance(f.gain);
-    const bool better = d < dist - 0.005;
+    const bool better = d < dist - margin;
     evidence += fmt::format("{}{} follows {} (corr {:.4f}) at {:.3f} × its scale: a_y / (v r) lies {:.1f} % from a unit "
-                            "combination with {}, {:.1f} % with {} → {}",
+                            "combination with {}, {:.1f} % with {} (margin {:.1f} %) → {}",
                             evidence.empty() ? "" : "; ", v.expression, best.v->expression, copy.corr, copy.gain,
                             100 * (std::exp(dist) - 1), best.v->expression, 100 * (std::exp(d) - 1), v.expression,
-                            better ? v.expression : best.v->expression);
+                            100 * margin, better ? v.expression : best.v->expression);
     if (!better) continue;
     dist = d;
     best.v = &v;
