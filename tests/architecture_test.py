@@ -26,7 +26,12 @@ ALLOWED = {("model", "ceres/jet.h")}
 
 
 def stage_table(doc: str) -> list[str]:
-    rows = re.findall(r"^\| `([a-z_]+)` \|", doc, flags=re.M)
+    # The stage table: from its marker comment to the first line that is not a table row.
+    start = doc.find("<!-- stage table")
+    table = doc[start:] if start >= 0 else ""
+    lines = table.splitlines()[1:]
+    end = next((i for i, line in enumerate(lines) if not line.startswith("|")), len(lines))
+    rows = re.findall(r"^\| `([a-z_]+)` \|", "\n".join(lines[:end]), flags=re.M)
     if not rows:
         raise SystemExit("docs/architecture.md: no stage table found")
     return rows

@@ -104,11 +104,12 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
   }
   if (top.Has("gate")) ReadGate(top.Child("gate"), c.gate);
   ReadIdentification(top.Has("identification") ? top.Child("identification") : YamlReader(YAML::Node(), path, "identification"),
-                     c.vehicle, c.role(Role::kYawRate) != nullptr, c.identification);
+                     base_dir, c.vehicle, c.role(Role::kYawRate) != nullptr, c.identification);
   if (top.Has("adequacy")) ReadAdequacy(top.Child("adequacy"), c.adequacy);
   if (top.Has("plausibility")) ReadPlausibility(top.Child("plausibility"), c.plausibility);
   if (top.Has("lcm")) ReadLcm(top.Child("lcm"), c.lcm);
   if (top.Has("model")) ReadModel(top.Child("model"), c);
+  if (!c.identification.prior_from.empty()) ApplyFleetPrior(path, c.vehicle, c.identification);
   ReadTopLevel(top, base_dir, c);
   top.Finish();
   return c;

@@ -140,8 +140,10 @@ void ReadGate(const YamlReader& g, GateConfig& gc) {
   g.Finish();
 }
 
-void ReadIdentification(const YamlReader& id, const VehicleConfig& vehicle, bool has_yaw_rate, IdentificationConfig& ic) {
+void ReadIdentification(const YamlReader& id, const std::string& base_dir, const VehicleConfig& vehicle, bool has_yaw_rate,
+                        IdentificationConfig& ic) {
   ReadParams(id, vehicle, ic);
+  ic.prior_from = Resolve(base_dir, id.String("prior_from", ""));
   ic.rate_hz = Ranged(id, "rate_hz", ic.rate_hz, 10, 200);
   ic.burn_in_s = Ranged(id, "burn_in_s", ic.burn_in_s, 1e-3, 600);
   ic.chunk_s = Ranged(id, "chunk_s", ic.chunk_s, 0.1, 3600);

@@ -33,12 +33,16 @@ void ReadSignals(const YamlReader& sig, Config& c);
 void ReadSync(const YamlReader& s, SyncConfig& sync);
 void ReadGate(const YamlReader& g, GateConfig& gate);
 // has_yaw_rate: the bus has a yaw rate (both outputs by default).
-void ReadIdentification(const YamlReader& id, const VehicleConfig& vehicle, bool has_yaw_rate, IdentificationConfig& ic);
+void ReadIdentification(const YamlReader& id, const std::string& base_dir, const VehicleConfig& vehicle, bool has_yaw_rate,
+                        IdentificationConfig& ic);
 void ReadAdequacy(const YamlReader& a, AdequacyConfig& adequacy);
 void ReadPlausibility(const YamlReader& p, PlausibilityConfig& plausibility);
 void ReadLcm(const YamlReader& l, LcmConfig& lcm);
 // model: effects, formulas (Config::model_formulas), priors (IdentificationConfig::priors).
 void ReadModel(const YamlReader& m, Config& c);
+// identification.prior_from: the fleet prior's parameters (Jz, cv, ch per kg of this vehicle's
+// mass; lv, is) as priors, where model.priors does not name them (called after ReadModel).
+void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicle, IdentificationConfig& ic);
 // The top level's own keys: state_dir, state_unreadable, report_dir, log_level.
 void ReadTopLevel(const YamlReader& top, const std::string& base_dir, Config& c);
 

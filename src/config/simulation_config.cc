@@ -60,6 +60,10 @@ const std::vector<EffectInfo>& EffectTable() {
        &SimEffects::accel_delay_ms},
       {"mass_change_kg", "kg", "per-drive mass m_i = m + U(-dm, dm), Jz scaled by m_i/m", "0..300",
        &SimEffects::mass_change_kg},
+      {"accel_vibration_mps2", "m/s^2", "RMS of a 15..35 Hz vibration on the accelerometer while moving (a raw IMU on a stiff mount)",
+       "1..7", &SimEffects::accel_vibration_mps2},
+      {"gyro_vibration_degps", "deg/s", "RMS of a 15..35 Hz vibration on the gyro while moving", "0.5..5",
+       &SimEffects::gyro_vibration_degps},
   };
   return table;
 }
@@ -335,6 +339,8 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   require(std::fabs(e.accel_scale_pct) < 50.0, "effects.accel_scale_pct in (-50, 50) %");
   require(e.gyro_delay_ms >= 0.0 && e.gyro_delay_ms <= 1000.0, "effects.gyro_delay_ms in [0, 1000] ms");
   require(e.accel_delay_ms >= 0.0 && e.accel_delay_ms <= 1000.0, "effects.accel_delay_ms in [0, 1000] ms");
+  require(e.accel_vibration_mps2 >= 0.0 && e.accel_vibration_mps2 <= 30.0, "effects.accel_vibration_mps2 in [0, 30] m/s^2");
+  require(e.gyro_vibration_degps >= 0.0 && e.gyro_vibration_degps <= 30.0, "effects.gyro_vibration_degps in [0, 30] deg/s");
   require(e.mass_change_kg >= 0.0 && e.mass_change_kg < 0.5 * v.mass_kg,
           "effects.mass_change_kg in [0, mass_kg/2) (a +- range)");
   for (double dm : e.mass_schedule_kg)

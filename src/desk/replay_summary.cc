@@ -116,7 +116,16 @@ void PrintSummary(const config::Config& config, const pipeline::Pipeline& pipeli
                 ss.valid ? Fmt("%.4f deg/g", model::EgToDegPerG(ss.eg_rad_per_mps2)).c_str() : ss.reason.c_str());
     std::printf("  adequacy: %s — %s\n", adequacy::StateName(fe->adequacy.state), fe->adequacy.explanation.c_str());
   } else {
-    std::printf("  no estimate: %s\n", fe ? fe->fit.reason.c_str() : "no gated data in the window");
+    std::string why = fe ? fe->fit.reason : "no gated data in the window";
+    const auto& counters = acc.counters();
+    const double accepted = static_cast<double>(
+        pipeline.gate().counters().by_verdict[static_cast<int>(gate::Verdict::kAccepted)]);
+    if (!fe && accepted > 0 && static_cast<double>(counters.short_segment_samples) > 0.5 * accepted) {
+      why += Fmt(": %.0f %% of the accepted samples lie in stretches shorter than gate.min_segment_s (short_segment); "
+                 "a noisy or vibrating sensor cut them (signals.<role>.lowpass_hz), or gaps in the signals",
+                 100 * static_cast<double>(counters.short_segment_samples) / accepted);
+    }
+    std::printf("  no estimate: %s\n", why.c_str());
   }
   if (fe) PrintChecks(fe->plausibility);
   std::printf("%s\n", GateLine(config, pipeline).c_str());

@@ -52,7 +52,7 @@ RoleCandidates FindCandidates(const BusData& data, InitResult& result) {
   c.lat = Candidates(data, RoleKind::kLatAccel, kTopCandidates);
   c.steer = Candidates(data, RoleKind::kSteer, 2 * kTopCandidates);
   c.lon = Candidates(data, RoleKind::kLongAccel, kTopCandidates);
-  c.wheels = Candidates(data, RoleKind::kWheelSpeed, 8);
+  c.wheels = Candidates(data, RoleKind::kWheelSpeed, 32);
   if (c.speed.empty()) RoleOf(result, Role::kSpeed).reason = "no varying signal named like a vehicle speed (speed/velocity/geschw, km/h|m/s|mph)";
   if (c.yaw.empty()) RoleOf(result, Role::kYawRate).reason = "no varying signal named like a yaw rate (yaw/gier)";
   if (c.lat.empty()) RoleOf(result, Role::kLateralAcceleration).reason = "no varying signal named like a lateral acceleration (accel_y/lat/quer)";
@@ -67,17 +67,25 @@ struct Triple {
   double score = -1;  // |corr| plus a little for good names
 };
 
+// v r on the grid where |v| is above `fraction` of its 99th percentile (NaN elsewhere).
+std::vector<double> SpeedTimesYaw(Grid& grid, const Source& v, const Source& r, double fraction) {
+  const std::vector<double>& vg = grid.Of(v);
+  const std::vector<double>& rg = grid.Of(r);
+  const double v99 = Percentile(Abs(vg), 0.99);
+  std::vector<double> vr(vg.size(), NAN);
+  for (size_t i = 0; i < vg.size(); ++i)
+    if (std::fabs(vg[i]) > fraction * v99) vr[i] = vg[i] * rg[i];
+  return vr;
+}
+
+constexpr double kKinematicSpeedFraction = 0.2;  // a_y = k v r above 20 % of the speed's 99th percentile
+
 Triple BestKinematicTriple(Grid& grid, const RoleCandidates& c) {
   Triple best;
   for (const auto& v : c.speed) {
-    const std::vector<double>& vg = grid.Of(v);
-    const double v99 = Percentile(Abs(vg), 0.99);
-    if (!(v99 > 0)) continue;
+    if (!(Percentile(Abs(grid.Of(v)), 0.99) > 0)) continue;
     for (const auto& r : c.yaw) {
-      const std::vector<double>& rg = grid.Of(r);
-      std::vector<double> vr(vg.size(), NAN);
-      for (size_t i = 0; i < vg.size(); ++i)
-        if (std::fabs(vg[i]) > 0.2 * v99) vr[i] = vg[i] * rg[i];
+      const std::vector<double> vr = SpeedTimesYaw(grid, v, r, kKinematicSpeedFraction);
       for (const auto& a : c.lat) {
         const Fit f = LinearFit(vr, grid.Of(a));
         const double score = std::fabs(f.corr) + 0.01 * (v.name_score + r.name_score + a.name_score);
@@ -88,42 +96,55 @@ Triple BestKinematicTriple(Grid& grid, const RoleCandidates& c) {
   return best;
 }
 
+// How far the gain of a_y = k v r is from the nearest unit combination's prediction (|log|).
+double UnitDistance(double gain) {
+  double d = INFINITY;
+  for (const auto& v : SpeedUnits())
+    for (const auto& r : YawUnits())
+      for (const auto& a : AccelUnits()) d = std::min(d, std::fabs(std::log(std::fabs(gain) * a.to_si / (v.to_si * r.to_si))));
+  return d;
+}
+
+// A scaled copy of the chosen speed (a speedometer's, a few % high) follows a_y = k v r as well:
+// among the copies (correlation above 0.995 with it), the speed is the one whose gain lies
+// nearest a unit combination's prediction (a_y = v r holds in SI), when nearer by a margin the
+// data resolve. Says so in `evidence`.
+void PreferUnscaledSpeed(Grid& grid, const RoleCandidates& c, Triple& best, std::string& evidence) {
+  if (best.v == nullptr) return;
+  // a_y = k v r down to a tenth of the top speed: at higher speeds the body's sideslip rate
+  // (a_y = v (r + beta')) tilts k by a percent or two, as much as a speedometer's bias.
+  auto gain = [&](const Source& v) { return LinearFit(SpeedTimesYaw(grid, v, *best.r, 0.1), grid.Of(*best.a)); };
+  const std::vector<double> chosen = grid.Of(*best.v);
+  const Fit own = gain(*best.v);
+  double dist = UnitDistance(own.gain);
+  // A copy wins only by more than the model's percent and twice the gain's standard error.
+  const double margin = std::max(0.01, 2.0 * own.gain_se / std::fabs(own.gain));
+  for (const auto& v : c.speed) {
+    if (&v == best.v) continue;
+    const Fit copy = LinearFit(chosen, grid.Of(v));
+    if (!(copy.corr > 0.995)) continue;
+    const Fit f = gain(v);
+    if (f.n < 100 || std::fabs(f.corr) < std::fabs(best.fit.corr) - 0.02) continue;
+    const double d = UnitDistance(f.gain);
+    const bool better = d < dist - margin;
+    evidence += fmt::format("{}{} follows {} (corr {:.4f}) at {:.3f} × its scale: a_y / (v r) lies {:.1f} % from a unit "
+                            "combination with {}, {:.1f} % with {} (margin {:.1f} %) → {}",
+                            evidence.empty() ? "" : "; ", v.expression, best.v->expression, copy.corr, copy.gain,
+                            100 * (std::exp(dist) - 1), best.v->expression, 100 * (std::exp(d) - 1), v.expression,
+                            100 * margin, better ? v.expression : best.v->expression);
+    if (!better) continue;
+    dist = d;
+    best.v = &v;
+    best.fit = LinearFit(SpeedTimesYaw(grid, v, *best.r, kKinematicSpeedFraction), grid.Of(*best.a));
+  }
+}
+
 // What step 1 decides and the later steps read.
 struct KinematicChoice {
   double sr = 1;                        // the sign that makes the yaw rate ISO 8855 (positive left)
   double fv = NAN, fr = NAN, fa = NAN;  // chosen unit factors to SI of speed, yaw rate, a_y
   std::vector<double> v_si;             // the speed on the grid [m/s]; empty: (v, r, a_y) not confirmed
 };
-
-// The speed against the mean of the wheel speeds, where present.
-struct WheelRatio {
-  double ratio = NAN;   // speed / mean of the wheel speeds (median while moving)
-  double factor = NAN;  // the speed's unit factor to SI the wheel speeds' DBC unit implies
-  std::string text;     // the evidence in words ("" when not measured)
-};
-
-WheelRatio MeasureWheelRatio(Grid& grid, const std::vector<Source>& wheels, const Source& speed, double v99) {
-  WheelRatio w;
-  if (wheels.empty()) return w;
-  const auto& su = SpeedUnits();
-  std::vector<double> mean(grid.size(), 0.0);
-  for (const auto& wh : wheels) {
-    const auto& wg = grid.Of(wh);
-    for (size_t i = 0; i < mean.size(); ++i) mean[i] += wg[i] / static_cast<double>(wheels.size());
-  }
-  const auto& vg = grid.Of(speed);
-  std::vector<double> ratio;
-  for (size_t i = 0; i < mean.size(); ++i)
-    if (std::fabs(vg[i]) > 0.2 * v99 && std::fabs(mean[i]) > 0) ratio.push_back(vg[i] / mean[i]);
-  if (ratio.size() < 100) return w;
-  w.ratio = Percentile(ratio, 0.5);
-  const int wu = MatchUnit(su, wheels.front().unit);
-  if (wu >= 0 && w.ratio != 0) w.factor = su[static_cast<size_t>(wu)].to_si / std::fabs(w.ratio);
-  w.text = fmt::format("speed / mean of {} wheel speeds ({}) = {:.4f} (median while moving){}", wheels.size(),
-                       wheels.front().expression, w.ratio,
-                       wu >= 0 ? fmt::format("; wheel speeds in {} by the DBC", su[static_cast<size_t>(wu)].name) : "");
-  return w;
-}
 
 // The posterior over the 12 unit combinations of (v, r, a_y): gain k = fv fr / fa.
 struct UnitPosterior {
@@ -188,41 +209,9 @@ double ChooseIsoSign(const Triple& best, int rel_a, KinematicChoice& k, InitResu
   return 0.7;
 }
 
-// The wheel speeds' mean as the optional wheel_speed role (the speed's plausibility check), its
-// unit from the speed's and the measured ratio (speed = ratio * mean of the wheels).
-void ProposeWheelSpeed(const BusData& data, const std::vector<Source>& wheels, const WheelRatio& wheel, double fv,
-                       InitResult& result) {
-  const auto& su = SpeedUnits();
-  const bool single_wheels = std::all_of(wheels.begin(), wheels.end(), [](const Source& w) { return w.terms.size() == 1; });
-  if (!(std::isfinite(wheel.ratio) && wheels.size() >= 2 && wheels.size() <= 4 && single_wheels)) return;
-  const double w_si = fv * std::fabs(wheel.ratio);
-  size_t bu = 0;
-  for (size_t i = 1; i < su.size(); ++i)
-    if (std::fabs(std::log(su[i].to_si / w_si)) < std::fabs(std::log(su[bu].to_si / w_si))) bu = i;
-  if (!(std::fabs(std::log(su[bu].to_si / w_si)) < std::log(1.1))) return;
-  RoleProposal p;
-  p.role = Role::kWheelSpeed;
-  SetSource(p, wheels.front(), data);
-  std::string sum;
-  for (const auto& w : wheels) sum += (sum.empty() ? "" : " + ") + w.expression;
-  p.expression = fmt::format("({}) / {}", sum, wheels.size());
-  p.multi_signal = true;
-  for (const auto& w : wheels) {
-    const SignalSeries& ws = data.signals[static_cast<size_t>(w.terms[0])];
-    p.period_s = std::max(p.period_s, ws.period_s);
-  }
-  p.found = true;
-  p.unit = su[bu].name;
-  p.sign = 1;
-  p.confidence = RoleOf(result, Role::kSpeed).confidence;
-  p.evidence.push_back(wheel.text + fmt::format(" → wheel speeds in {} (only for the plausibility check of vehicle_speed)",
-                                                su[bu].name));
-  result.roles.push_back(p);
-}
-
 // 1. (v, r, a_y): a_y = k v r with the best correlated triple; their units, signs and evidence.
 KinematicChoice ProposeKinematicRoles(const BusData& data, Grid& grid, const Triple& best, const std::vector<Source>& wheels,
-                                      InitResult& result) {
+                                      const std::string& copies, InitResult& result) {
   KinematicChoice k;
   const auto& su = SpeedUnits();
   const auto& yu = YawUnits();
@@ -230,7 +219,7 @@ KinematicChoice ProposeKinematicRoles(const BusData& data, Grid& grid, const Tri
   const double v99 = Percentile(Abs(grid.Of(*best.v)), 0.99);
   const double r99 = Percentile(Abs(grid.Of(*best.r)), 0.99);
   const double a99 = Percentile(Abs(grid.Of(*best.a)), 0.99);
-  const WheelRatio wheel = MeasureWheelRatio(grid, wheels, *best.v, v99);
+  const WheelChoice wheel = ChooseWheels(grid, wheels, *best.v, v99);
   const UnitPosterior u = ChooseUnits(best, v99, r99, a99, wheel.factor);
   const size_t bv = u.bv, br = u.br, ba = u.ba;
   const double total = u.total;
@@ -276,8 +265,8 @@ KinematicChoice ProposeKinematicRoles(const BusData& data, Grid& grid, const Tri
                                      Pct(u.marg_r[br] / total), best.r->unit, r99 * k.fr));
   lat.evidence.push_back(fmt::format("unit {} (posterior {}; DBC says '{}'); p99 |a_y| = {:.2f} m/s^2", au[ba].name,
                                      Pct(u.marg_a[ba] / total), best.a->unit, a99 * k.fa));
+  if (!copies.empty()) speed.evidence.push_back(copies);
   if (!wheel.text.empty()) speed.evidence.push_back(wheel.text);
-  ProposeWheelSpeed(data, wheels, wheel, k.fv, result);  // may reallocate result.roles: no references below
   if (!best.r->pair_evidence.empty()) RoleOf(result, Role::kYawRate).evidence.push_back(best.r->pair_evidence);
   if (!best.a->pair_evidence.empty()) RoleOf(result, Role::kLateralAcceleration).evidence.push_back(best.a->pair_evidence);
   k.v_si = grid.Of(*best.v);
@@ -314,10 +303,12 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
   const RoleCandidates c = FindCandidates(data, result);
 
   // 1. (v, r, a_y): a_y = k v r. The best correlated triple among the named candidates.
-  const Triple best = BestKinematicTriple(grid, c);
+  Triple best = BestKinematicTriple(grid, c);
+  std::string copies;
+  PreferUnscaledSpeed(grid, c, best, copies);
   KinematicChoice k;
   if (best.v != nullptr && std::fabs(best.fit.corr) >= 0.5) {
-    k = ProposeKinematicRoles(data, grid, best, c.wheels, result);
+    k = ProposeKinematicRoles(data, grid, best, c.wheels, copies, result);
   } else {
     const std::string why = best.v == nullptr
                                 ? "no (speed, yaw rate, a_y) candidates to test a_y = v r with"
@@ -338,15 +329,27 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
   for (double x : k.v_si) moving += std::isfinite(x) && x > kMoving_mps;
   result.moving_s = static_cast<double>(moving) / kGrid_hz;
 
-  // 2. Steering: r = g v d / (1 + v^2/v_ch^2) at low lateral acceleration.
+  // 2. Steering: kappa (1 + v^2/v_ch^2) = g d_sw with kappa = r / v, over every moving sample.
   if (yaw_found && !c.steer.empty()) {
-    ProposeSteering(data, grid, *best.r, *best.a, k.fr * k.sr, k.fa, k.v_si, c.steer, options, result);
+    ProposeSteering(data, grid, *best.r, k.fr * k.sr, k.v_si, c.steer, options, result);
   } else if (!RoleOf(result, Role::kSteeringWheelAngle).found && RoleOf(result, Role::kSteeringWheelAngle).reason.empty()) {
     RoleOf(result, Role::kSteeringWheelAngle).reason = "needs the speed and yaw rate (r = v d_sw / (is l)) or a_y (a_y = v^2 d_sw / (is l)) confirmed first";
   }
 
   // 3. a_x = dv/dt.
   ProposeLongitudinal(data, grid, k.v_si, c.lon, result);
+
+  // 4. Conditioning: a_y and the yaw rate low-passed where they are noisier than the dynamics.
+  ProposeConditioning(data, c.lat, c.yaw, k.v_si, result);
+
+  // 5. The wheel speeds that follow the chosen speed, their scale from it (may reallocate result.roles).
+  if (!k.v_si.empty()) {
+    for (const auto& v : c.speed) {
+      if (v.expression != RoleOf(result, Role::kSpeed).expression) continue;
+      ProposeWheelSpeed(data, grid, ChooseWheels(grid, c.wheels, v, Percentile(Abs(grid.Of(v)), 0.99)), k.v_si, result);
+      break;
+    }
+  }
 
   const std::string bus = CommonBus(data, result);
   if (!bus.empty()) result.bus = bus;

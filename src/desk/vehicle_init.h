@@ -10,6 +10,7 @@
 // comments when they say so, otherwise it is assumed and the summary says so.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -38,6 +39,7 @@ struct RoleProposal {
   double period_s = 0;          // measured median message period
   double timeout_s = 0.1;       // 10 periods, at least 0.1 s
   double confidence = 0;        // 0..1: the smallest of the choice's, the unit's and the sign's
+  double lowpass_hz = 0;        // conditioning for a noisy sensor (signals.<role>.lowpass_hz; 0 = none)
   std::vector<std::string> evidence;  // one line each: correlation, fitted gain, ratio, posterior
   std::string reason;                 // why the role was not found
 };
@@ -58,18 +60,34 @@ struct InitResult {
 // Reads the whole log. Throws ConfigError when no frame decodes with the DBC.
 InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, const InitOptions& options = {});
 
+// The data-sheet values given on the command line; a value not given is NaN (the axle loads and
+// track widths: 0). Without the wheelbase and mass the YAML carries placeholders marked CHECK.
+struct VehicleSheet {
+  double wheelbase_m = NAN;         // l: EG scales with it
+  double mass_kg = NAN;             // m: does not move EG; Jz and the stiffnesses are in its units
+  double front_axle_load_kg = 0;    // both axle loads or neither: they centre the box's lv
+  double rear_axle_load_kg = 0;
+  double track_front_m = 0;         // optional track widths
+  double track_rear_m = 0;
+};
+inline constexpr double kPlaceholderWheelbase_m = 2.7;  // written, marked CHECK, when l is not given
+inline constexpr double kPlaceholderMass_kg = 1500.0;
+
 // Paths as they are to be written into the YAML (relative to the output file's folder).
 struct InitYamlInputs {
   std::string vehicle_name;
   std::string log_path;
   std::string dbc_path;
   std::string command_line;
+  std::string state_name;  // the learned state's folder under out/state/ ("" = vehicle_name)
+  VehicleSheet vehicle;
 };
 // A commented vehicle YAML in the layout of config/example_vehicle.yaml; roles not found are
 // written commented out with the reason.
 std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& inputs);
 
-// What was decided per role, the evidence and how sure: the console summary.
-std::string InitSummary(const InitResult& result);
+// What was decided per role, the evidence and how sure: the console summary; a warning line
+// per data-sheet value left as a placeholder.
+std::string InitSummary(const InitResult& result, const VehicleSheet& vehicle = {});
 
 }  // namespace ndsid::desk

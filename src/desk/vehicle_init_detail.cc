@@ -69,6 +69,36 @@ bool Contains(const std::string& low, std::initializer_list<const char*> parts) 
   return false;
 }
 
+// 0 FL, 1 FR, 2 RL, 3 RR from a name's tokens: a corner code or a side and an axle word.
+int CornerOf(const std::vector<std::string>& t) {
+  static const std::pair<const char*, int> kCodes[] = {
+      {"fl", 0}, {"lf", 0}, {"vl", 0}, {"lv", 0}, {"fr", 1}, {"rf", 1}, {"vr", 1}, {"rv", 1},
+      {"rl", 2}, {"lr", 2}, {"hl", 2}, {"lh", 2}, {"rr", 3}, {"hr", 3}, {"rh", 3}};
+  for (const auto& [code, corner] : kCodes)
+    if (AnyExact(t, {code})) return corner;
+  const bool front = AnyExact(t, {"front", "vorne", "vorn", "vo", "frt"});
+  const bool rear = AnyExact(t, {"rear", "hinten", "hi"});
+  const bool left = AnyExact(t, {"left", "links", "li", "lft"});
+  const bool right = AnyExact(t, {"right", "rechts", "re", "rgt"});
+  return front != rear && left != right ? (rear ? 2 : 0) + (right ? 1 : 0) : -1;
+}
+
+}  // namespace
+
+int WheelCorner(const dbc::Message& m, const dbc::Signal& s) {
+  const int own = CornerOf(Tokens(s.name));
+  return own >= 0 ? own : CornerOf(Tokens(m.name));
+}
+
+bool IsRpmUnit(const std::string& unit) {
+  const std::string u = Lower(unit);
+  for (const char* a : {"rpm", "1/min", "u/min", "min-1", "min^-1", "1/mn", "r/min", "rev/min", "upm", "tr/min"})
+    if (u == a) return true;
+  return false;
+}
+
+namespace {
+
 const std::initializer_list<const char*> kNeverRole = {
     "stat", "diag", "qbit", "valid", "fault", "counter", "checksum", "crc", "cmd", "req", "command", "target",
     "desired", "limit", "lim", "offset", "vz", "sign", "init", "error", "override", "max", "min", "set", "alive"};
@@ -94,6 +124,7 @@ int BaseNameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
       const bool named = Any(t, {"speed", "spd", "veloc", "geschw"}) || Contains(low, {"geschw"});
       const bool unit = MatchUnit(SpeedUnits(), s.unit) >= 0;
       if (!named && !unit) return 0;
+      if (CornerOf(t) >= 0) return 0;  // one wheel's speed
       if (Any(t, {"wheel", "whl", "rad", "engine", "eng", "rpm", "cruise", "hud", "fan", "wiper", "steer", "rate",
                   "accel", "rel", "obj", "nav", "gear", "rough", "disp", "left", "right", "lenk", "sound", "acc",
                   "angez", "anzeige", "wunsch", "soll", "tempo", "lim"}) ||
@@ -102,10 +133,17 @@ int BaseNameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
       return (named ? 3 : 1) + Any(t, {"vehicle", "veh", "car", "xmission", "fzg"}) + unit;
     }
     case RoleKind::kWheelSpeed: {
-      const bool wheel = Any(t, {"wheel", "whl", "rad"}) || Any(mt, {"wheel", "whl"});
-      const bool speed = Any(t, {"speed", "spd"}) || Contains(low, {"geschw"}) || Any(mt, {"speed", "spd"});
-      const bool corner = AnyExact(t, {"fl", "fr", "rl", "rr", "vl", "vr", "hl", "hr", "lf", "rf", "lr"});
-      return wheel && speed && corner ? 3 : 0;
+      // A corner, and a speed: by its unit (km/h, m/s, mph, or 1/min: a rolling radius is fitted
+      // later) or by its name. The data decide which of them follow the vehicle speed.
+      if (WheelCorner(m, s) < 0) return 0;
+      const bool wheel = Any(t, {"wheel", "whl", "rad", "rd"}) || Any(mt, {"wheel", "whl", "rad"});
+      const bool named = Any(t, {"speed", "spd", "veloc", "rpm"}) || Contains(low, {"geschw", "drehzahl"}) ||
+                         Any(mt, {"speed", "spd"}) || Contains(Lower(m.name), {"geschw", "drehzahl"});
+      const bool unit = MatchUnit(SpeedUnits(), s.unit) >= 0 || IsRpmUnit(s.unit);
+      if (Any(t, {"press", "druck", "temp", "torque", "moment", "slip", "schlupf", "brake", "brems", "puls", "impuls",
+                  "tick", "edge", "flank", "dist", "weg", "height", "hoehe", "level", "niveau"}))
+        return 0;
+      return unit || named ? 2 + wheel + (unit && named) : 0;
     }
     case RoleKind::kLatAccel: {
       if (Any(t, {"long", "ref", "obj", "pos", "jerk", "gps"})) return 0;
@@ -331,6 +369,7 @@ std::vector<Source> Candidates(const BusData& data, RoleKind kind, size_t top) {
     src.unit = s.signal->unit;
     src.comment = s.signal->comment;
     src.name_score = score;
+    if (kind == RoleKind::kWheelSpeed) src.corner = WheelCorner(*s.message, *s.signal);
     if (kind == RoleKind::kSteer || kind == RoleKind::kYawRate || kind == RoleKind::kLatAccel) CombineSign(data, src);
     if (kind == RoleKind::kSteer && s.signal->mux_role == dbc::MuxRole::kNone && src.terms.size() == 1)
       for (auto& pair : FinePairs(data, src)) out.push_back(std::move(pair));
@@ -395,7 +434,13 @@ int CommentDirection(const std::string& comment) {
       low.erase(p, std::string(ccw).size());
     }
   }
-  if (Contains(low, {"clockwise"})) right = true;
+  for (const char* ccw : {"gegen den uhrzeigersinn", "gegen uhrzeigersinn", "entgegen dem uhrzeigersinn", "gegenuhrzeigersinn"}) {
+    for (size_t p; (p = low.find(ccw)) != std::string::npos;) {
+      left = true;
+      low.erase(p, std::string(ccw).size());
+    }
+  }
+  if (Contains(low, {"clockwise", "uhrzeigersinn"})) right = true;
   for (const auto& t : Tokens(low)) {
     if (t == "left" || t == "links") left = true;
     if (t == "right" || t == "rechts") right = true;

@@ -42,6 +42,12 @@ BusData CollectSignals(const dbc::Database& db, can::FrameLog& log, const std::s
 
 enum class RoleKind { kSteer, kSpeed, kLatAccel, kYawRate, kLongAccel, kWheelSpeed };
 
+// The corner a wheel signal's name (or its message's) gives: 0 front left, 1 front right, 2 rear
+// left, 3 rear right (FL, VL, LF, "links vorne", "FrontLeft" ...); -1 none.
+int WheelCorner(const dbc::Message& m, const dbc::Signal& s);
+// A rotational speed's unit: rpm, 1/min, U/min, min^-1 ...
+bool IsRpmUnit(const std::string& unit);
+
 // A role candidate: one signal, or several of one message combined.
 struct Source {
   enum class Combine { kSingle, kSum, kDifference, kSignMagnitude };
@@ -52,6 +58,7 @@ struct Source {
   std::string comment;     // DBC comment of the first term (and its message)
   int name_score = 0;
   std::string pair_evidence;  // why several signals were combined
+  int corner = -1;            // wheel speeds: WheelCorner
 };
 
 // Varying signals named like `kind`, best names first, at most `top`; coarse+fine and
@@ -60,8 +67,9 @@ std::vector<Source> Candidates(const BusData& data, RoleKind kind, size_t top);
 
 void SetSource(RoleProposal& p, const Source& s, const BusData& data);
 
-// Sample-and-hold onto a fixed grid; NaN where the last value is stale (older than
-// max(0.5 s, 5 periods)) or absent; then a centred 1 s moving average (NaN if any value in it is).
+// Onto a fixed grid: each point the mean of the samples since the previous point, else the last
+// sample held; NaN where that is stale (older than max(0.5 s, 5 periods)) or absent; then a
+// centred 1 s moving average (NaN if any value in it is).
 class Grid {
  public:
   Grid(const BusData& data, double rate_hz);
@@ -112,17 +120,49 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
                                           const std::vector<Source>& lat, const std::vector<Source>& steer,
                                           const InitOptions& options, InitResult& result);
 
-// Step 2, the steering: r = g v d_sw / (1 + v^2/v_ch^2) at low lateral acceleration, against the
-// confirmed yaw rate `yaw` (times yaw_to_iso: its unit factor and ISO sign) and `lat` (times
-// lat_to_si) with the speed v_si [m/s] on the grid. Fills result's steering role.
-void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, const Source& lat, double yaw_to_iso,
-                     double lat_to_si, const std::vector<double>& v_si, const std::vector<Source>& steer,
-                     const InitOptions& options, InitResult& result);
+// Step 2, the steering, by the kinematic relation: the path's curvature kappa = r / v follows
+// d_sw: kappa (1 + v^2/v_ch^2) = g d_sw with g = 1 / (is l), over every moving sample (v > 3 m/s,
+// at any lateral acceleration: low speeds with large angles count), both sides median-filtered
+// over 0.5 s. `yaw` times yaw_to_iso is the yaw rate in rad/s, ISO 8855; v_si the speed [m/s]
+// on the grid. Fills result's steering role.
+void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, double yaw_to_iso, const std::vector<double>& v_si,
+                     const std::vector<Source>& steer, const InitOptions& options, InitResult& result);
+
+// A running median over `width` samples (odd), NaN where more than half of them are NaN.
+std::vector<double> MedianFilter(const std::vector<double>& x, size_t width);
+
+inline constexpr double kSteerMoving_mps = 3.0;  // the steering fits' samples are above this speed
 
 // Step 3, a_x = dv/dt from the speed v_si [m/s] on the grid (empty: not confirmed). Fills
 // result's longitudinal-acceleration role.
 void ProposeLongitudinal(const BusData& data, Grid& grid, const std::vector<double>& v_si, const std::vector<Source>& lon,
                          InitResult& result);
+
+// The wheel speeds by physics: per corner the candidate that follows the vehicle speed best,
+// kept when its correlation while moving is above 0.95 (at least two corners, one kind of unit).
+struct WheelChoice {
+  std::vector<Source> wheels;  // the kept ones, FL FR RL RR order
+  std::vector<double> corr;    // each one's correlation with the vehicle speed
+  bool rpm = false;            // rotational speeds (1/min): their scale is a rolling radius
+  double ratio = NAN;          // vehicle speed / the wheels' mean, both in bus units (median while moving)
+  double factor = NAN;         // the speed's unit factor to SI that the wheels' DBC speed unit implies
+  std::string text;            // the evidence ("" when no wheels were kept)
+};
+WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, const Source& speed, double v99);
+
+// The optional wheel_speed role: the kept wheels' mean, its scale regressed on the vehicle speed
+// v_si [m/s] on the grid (a unit, or a factor and the speed's unit: 1/min with a rolling radius).
+void ProposeWheelSpeed(const BusData& data, Grid& grid, const WheelChoice& wheels, const std::vector<double>& v_si,
+                       InitResult& result);
+
+// The std [SI] of a source's raw samples about their centred 0.5 s moving mean, while the speed
+// v_si on the grid is above 3 m/s (to_si: its unit's factor); NaN with fewer than 200 samples.
+double HighFrequencyNoise(const BusData& data, const Source& s, double to_si, const std::vector<double>& v_si);
+
+// Conditioning: the found a_y (and yaw rate) get lowpass_hz 5 when their noise is above 0.5 m/s^2
+// (the yaw rate: 0.5 m/s^2 / 15 m/s), and the measured noise as evidence either way.
+void ProposeConditioning(const BusData& data, const std::vector<Source>& lat, const std::vector<Source>& yaw,
+                         const std::vector<double>& v_si, InitResult& result);
 
 // The proposal of role r (result.roles is indexed by Role for the roles up to a_x).
 inline RoleProposal& RoleOf(InitResult& result, config::Role r) { return result.roles[static_cast<size_t>(r)]; }

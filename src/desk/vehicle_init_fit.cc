@@ -71,11 +71,16 @@ const std::vector<double>& Grid::OfSignal(int index) {
   const SignalSeries& s = data_.signals[static_cast<size_t>(index)];
   std::vector<double> g(n_, NAN);
   const double max_age = std::max(0.5, 5.0 * s.period_s);
+  // Each grid point: the mean of the samples since the previous one (every sample counts: a
+  // sensor vibrating faster than the grid is averaged, not aliased), else the last one held.
   size_t k = 0;
   for (size_t i = 0; i < n_; ++i) {
     const double t = data_.t0 + static_cast<double>(i) / rate_hz_;
-    while (k < s.t.size() && s.t[k] <= t) ++k;
-    if (k > 0 && t - s.t[k - 1] <= max_age) g[i] = s.v[k - 1];
+    double sum = 0;
+    size_t n = 0;
+    for (; k < s.t.size() && s.t[k] <= t; ++k) sum += s.v[k], ++n;
+    if (n > 0) g[i] = sum / static_cast<double>(n);
+    else if (k > 0 && t - s.t[k - 1] <= max_age) g[i] = s.v[k - 1];
   }
   // Centred moving average over ~1 s: the relations init tests are quasi-static, the sensor
   // noise and quantisation are not (on the real RAV4 segment corr(a_y, v r) goes -0.35 -> -0.81).
@@ -123,14 +128,15 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
   const auto& du = SteerUnits();
   const auto& au = AccelUnits();
   constexpr double kVch2 = kCharSpeed_mps * kCharSpeed_mps;
-  // x = v^2 d / (1 + v^2/v_ch^2) with v in the unit `vu`, above 4 m/s.
+  // x = v^2 d / (1 + v^2/v_ch^2) with v in the unit `vu`, above 3 m/s (a_y against it, not a_y / v^2
+  // against d: the fit's intercept then takes the accelerometer's offset).
   auto regressor = [&](const Source& v, size_t vu, const Source& d) {
     const auto& vg = grid.Of(v);
     const auto& dg = grid.Of(d);
     std::vector<double> x(vg.size(), NAN);
     for (size_t i = 0; i < vg.size(); ++i) {
       const double vs = vg[i] * su[vu].to_si;
-      if (vs > 4.0 && vs < 75.0) x[i] = vs * vs * dg[i] / (1.0 + vs * vs / kVch2);
+      if (vs > kSteerMoving_mps && vs < 75.0) x[i] = vs * vs * dg[i] / (1.0 + vs * vs / kVch2);
     }
     return x;
   };
@@ -222,12 +228,32 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
   return v_si;
 }
 
-void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, const Source& lat, double yaw_to_iso,
-                     double lat_to_si, const std::vector<double>& v_si, const std::vector<Source>& steer,
-                     const InitOptions& options, InitResult& result) {
-  std::vector<double> r_si = grid.Of(yaw), a_si = grid.Of(lat);
-  for (double& x : r_si) x *= yaw_to_iso;
-  for (double& x : a_si) x *= lat_to_si;
+std::vector<double> MedianFilter(const std::vector<double>& x, size_t width) {
+  std::vector<double> out(x.size(), NAN), window;
+  const size_t h = width / 2;
+  for (size_t i = 0; i < x.size(); ++i) {
+    window.clear();
+    for (size_t j = i >= h ? i - h : 0; j <= i + h && j < x.size(); ++j)
+      if (std::isfinite(x[j])) window.push_back(x[j]);
+    if (2 * window.size() <= width) continue;
+    std::nth_element(window.begin(), window.begin() + static_cast<std::ptrdiff_t>(window.size() / 2), window.end());
+    out[i] = window[window.size() / 2];
+  }
+  return out;
+}
+
+void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, double yaw_to_iso, const std::vector<double>& v_si,
+                     const std::vector<Source>& steer, const InitOptions& options, InitResult& result) {
+  // kappa (1 + v^2/v_ch^2) from the ISO yaw rate, over moving samples; 0.5 s medians (11 points
+  // at 20 Hz) so that neither noise spikes nor a few bad frames decide.
+  const size_t median_width = 2 * static_cast<size_t>(std::lround(0.25 * kGrid_hz)) + 1;
+  const std::vector<double>& rg = grid.Of(yaw);
+  std::vector<double> y(rg.size(), NAN);
+  for (size_t i = 0; i < rg.size(); ++i) {
+    if (!(v_si[i] > kSteerMoving_mps)) continue;
+    y[i] = rg[i] * yaw_to_iso / v_si[i] * (1.0 + (v_si[i] * v_si[i]) / (kCharSpeed_mps * kCharSpeed_mps));
+  }
+  y = MedianFilter(y, median_width);
   struct SteerFit {
     const Source* s = nullptr;
     Fit fit;
@@ -235,20 +261,18 @@ void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, const S
   } bs;
   std::vector<std::pair<const Source*, Fit>> steer_fits;
   for (const auto& s : steer) {
-    const auto& dg = grid.Of(s);
-    std::vector<double> x(dg.size(), NAN);
-    for (size_t i = 0; i < dg.size(); ++i)
-      if (v_si[i] > 4.0 && std::fabs(a_si[i]) < 2.0)
-        x[i] = v_si[i] * dg[i] / (1.0 + (v_si[i] * v_si[i]) / (kCharSpeed_mps * kCharSpeed_mps));
-    const Fit f = LinearFit(x, r_si);
+    std::vector<double> x = MedianFilter(grid.Of(s), median_width);
+    for (size_t i = 0; i < x.size(); ++i)
+      if (!std::isfinite(y[i])) x[i] = NAN;
+    const Fit f = LinearFit(x, y);
     steer_fits.emplace_back(&s, f);
     const double score = std::fabs(f.corr) + 0.01 * s.name_score;
     if (f.n >= 100 && score > bs.score) bs = {&s, f, score};
   }
   RoleProposal& p = RoleOf(result, Role::kSteeringWheelAngle);
   if (!(bs.s != nullptr && std::fabs(bs.fit.corr) >= 0.5)) {
-    p.reason = bs.s == nullptr ? "too little driving above 4 m/s to test r = v d_sw / (is l)"
-                               : fmt::format("best candidate {} does not follow r = v d_sw / (is l) (corr {:+.2f} < 0.5)",
+    p.reason = bs.s == nullptr ? "too little driving above 3 m/s to test r / v = d_sw / (is l)"
+                               : fmt::format("best candidate {} does not follow r / v = d_sw / (is l) (corr {:+.2f} < 0.5)",
                                              bs.s->expression, bs.fit.corr);
     return;
   }
@@ -273,8 +297,9 @@ void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, const S
   const double p_unit = total > 0 ? w[bu] / total : 0;
   p.confidence = std::min({p_unit, std::fabs(bs.fit.corr), RoleOf(result, Role::kYawRate).confidence});
   p.evidence.push_back(fmt::format(
-      "r = g v d_sw / (1 + v^2/v_ch^2), v_ch = {:.0f} m/s, |a_y| < 2 m/s^2, {} samples: corr {:+.3f}, g = {:.5g} ± {:.2g}",
-      kCharSpeed_mps, bs.fit.n, bs.fit.corr, bs.fit.gain, bs.fit.gain_se));
+      "kappa (1 + v^2/v_ch^2) = g d_sw with kappa = r / v, v_ch = {:.0f} m/s, v > {:.0f} m/s, 0.5 s medians, {} samples: "
+      "corr {:+.3f}, g = {:.5g} ± {:.2g}",
+      kCharSpeed_mps, kSteerMoving_mps, bs.fit.n, bs.fit.corr, bs.fit.gain, bs.fit.gain_se));
   p.evidence.push_back(fmt::format("steer ratio with l = {:.2f} m: {:.1f} if {}, {:.1f} if {} → {} (posterior {}; DBC says '{}')", l,
                                    units[0].to_si / (std::fabs(bs.fit.gain) * l), units[0].name,
                                    units[1].to_si / (std::fabs(bs.fit.gain) * l), units[1].name, p.unit, Pct(p_unit),

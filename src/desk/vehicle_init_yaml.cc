@@ -1,6 +1,7 @@
 // `ndsid init`'s outputs: the commented vehicle YAML and the console summary.
 #include <spdlog/fmt/fmt.h>
 
+#include <cmath>
 #include <sstream>
 
 #include "vehicle_init.h"
@@ -36,6 +37,33 @@ std::string Quoted(const std::string& s) {
 
 std::string Number(double x) { return fmt::format("{:g}", x); }
 
+// The vehicle section: the data-sheet values given, placeholders marked CHECK for the others.
+void WriteVehicle(std::ostringstream& y, const InitYamlInputs& in) {
+  const VehicleSheet& v = in.vehicle;
+  y << "vehicle:\n"
+    << "  name: " << Quoted(in.vehicle_name) << "   # keys the learned state (state_dir below follows it)\n";
+  if (std::isfinite(v.wheelbase_m)) {
+    y << "  wheelbase_m: " << Number(v.wheelbase_m) << "   # l from --wheelbase [m]; EG scales with it\n";
+  } else {
+    y << "  # CHECK: PLACEHOLDER, not this car's wheelbase. EG scales with l: a wheelbase 2 % off gives an EG\n"
+      << "  # 2 % off, published as valid. Set l from the data sheet (or run init again with --wheelbase).\n"
+      << "  wheelbase_m: " << Number(kPlaceholderWheelbase_m) << "   # CHECK placeholder [m]\n";
+  }
+  if (std::isfinite(v.mass_kg)) {
+    y << "  mass_kg: " << Number(v.mass_kg) << "   # m [kg] (curb + driver) from the command line; the parameter box scales with it\n";
+  } else {
+    y << "  # CHECK: PLACEHOLDER mass. It does not move EG, but Jz and the cornering stiffnesses are reported in\n"
+      << "  # its units and the parameter box is built from it. Set m from the data sheet (or --mass).\n"
+      << "  mass_kg: " << Number(kPlaceholderMass_kg) << "   # CHECK placeholder [kg]\n";
+  }
+  if (v.front_axle_load_kg > 0 && v.rear_axle_load_kg > 0) {
+    y << "  front_axle_load_kg: " << Number(v.front_axle_load_kg) << "   # data sheet: centre the box's lv\n"
+      << "  rear_axle_load_kg: " << Number(v.rear_axle_load_kg) << "\n";
+  }
+  if (v.track_front_m > 0) y << "  track_front_m: " << Number(v.track_front_m) << "   # [m]\n";
+  if (v.track_rear_m > 0) y << "  track_rear_m: " << Number(v.track_rear_m) << "   # [m]\n";
+}
+
 }  // namespace
 
 std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in) {
@@ -46,11 +74,9 @@ std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in
     << "# the evidence and confidence are in the comment above each. Check every line marked CHECK, then\n"
     << "# replay: `ndsid replay --config <this file>`. Every key: docs/configuration.md; how init decides: docs/new-car.md.\n";
   for (const auto& n : result.notes) y << "# " << n << "\n";
-  y << "\nvehicle:\n"
-    << "  name: " << in.vehicle_name << "          # keys the learned state\n"
-    << "  wheelbase_m: 2.7          # CHECK: l from the data sheet [m] (placeholder)\n"
-    << "  mass_kg: 1500             # CHECK: data sheet (curb + driver) [kg] (placeholder)\n"
-    << "\nsource:\n"
+  y << "\n";
+  WriteVehicle(y, in);
+  y << "\nsource:\n"
     << "  type: log\n"
     << "  logs: [" << Quoted(in.log_path) << "]\n"
     << "  bus: " << Quoted(result.bus) << (result.bus.empty() ? "                   # all buses\n" : "              # the bus the roles were found on\n")
@@ -73,7 +99,9 @@ std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in
     else y << "message: " << p.message << ", signal: " << p.signal;
     y << ", unit: " << p.unit;
     if (p.role != Role::kSpeed || p.sign != 1) y << ", sign: " << p.sign;
-    y << ", timeout_s: " << Number(p.timeout_s) << "}\n";
+    y << ", timeout_s: " << Number(p.timeout_s);
+    if (p.lowpass_hz > 0) y << ", lowpass_hz: " << Number(p.lowpass_hz);
+    y << "}\n";
   }
   y << "\ngate:\n"
     << "  min_drive_km: 2.0           # drives shorter than this are not used (the study's rule) [km]\n";
@@ -90,12 +118,13 @@ std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in
   y
     << "\n# identification: the parameter box is this car's physical box, from vehicle.wheelbase_m and\n"
     << "# vehicle.mass_kg (and the axle loads where given; docs/configuration.md, \"The parameter box\").\n"
-    << "\nstate_dir: out/state          # learned state (systemd: /var/lib/ndsid)\n"
+    << "\nstate_dir: " << Quoted("out/state/" + (in.state_name.empty() ? in.vehicle_name : in.state_name))
+    << "   # this car's learned state (systemd: /var/lib/ndsid/<name>)\n"
     << "report_dir: out/report        # reports of the ndsid commands (relative to this file)\n";
   return y.str();
 }
 
-std::string InitSummary(const InitResult& result) {
+std::string InitSummary(const InitResult& result, const VehicleSheet& vehicle) {
   std::ostringstream o;
   o << fmt::format("read {} frames, {:.1f} s of log, {:.1f} s above 5 m/s{}\n", result.frames, result.log_duration_s,
                    result.moving_s, result.bus.empty() ? "" : ", roles on bus " + result.bus);
@@ -106,13 +135,25 @@ std::string InitSummary(const InitResult& result) {
       o << fmt::format("{:<26} NOT FOUND{}: {}\n", config::RoleKey(p.role), mandatory ? " (required)" : "", p.reason);
       continue;
     }
-    o << fmt::format("{:<26} {}  unit {}  sign {:+d}  timeout {:g} s  confidence {:.0f} % ({})\n", config::RoleKey(p.role),
-                     p.expression, p.unit, p.sign, p.timeout_s, 100 * p.confidence, Sureness(p.confidence));
+    o << fmt::format("{:<26} {}  unit {}  sign {:+d}  timeout {:g} s{}  confidence {:.0f} % ({})\n", config::RoleKey(p.role),
+                     p.expression, p.unit, p.sign, p.timeout_s,
+                     p.lowpass_hz > 0 ? fmt::format("  lowpass {:g} Hz", p.lowpass_hz) : "", 100 * p.confidence,
+                     Sureness(p.confidence));
     for (const auto& e : p.evidence) o << "    " << e << "\n";
   }
   for (const auto& n : result.notes) o << "note: " << n << "\n";
   o << (result.MandatoryFound() ? "required roles (steering, speed, a_y): found\n"
                                 : "required roles (steering, speed, a_y): NOT all found; the config has them commented out\n");
+  if (!std::isfinite(vehicle.wheelbase_m)) {
+    o << fmt::format("WARNING: vehicle.wheelbase_m is a placeholder ({:g} m, marked CHECK): EG scales with the wheelbase; "
+                     "set it from the data sheet or run init again with --wheelbase\n",
+                     kPlaceholderWheelbase_m);
+  }
+  if (!std::isfinite(vehicle.mass_kg)) {
+    o << fmt::format("WARNING: vehicle.mass_kg is a placeholder ({:g} kg, marked CHECK): set it from the data sheet or use "
+                     "--mass\n",
+                     kPlaceholderMass_kg);
+  }
   return o.str();
 }
 

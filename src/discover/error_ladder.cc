@@ -96,10 +96,13 @@ void ErrorLadder::AlignInTime() {
   training_ = identify::Pointers(aligned_training_);
   validation_ = identify::Pointers(aligned_validation_);
   const IdentificationResult refit = current_.Identify(training_, validation_, std::optional<std::vector<double>>(fit_.AllValues()));
-  if (refit.valid) {
+  if (refit.valid) ladder_.alignment_rejected = AlignmentRejection(fit_, refit);
+  if (refit.valid && ladder_.alignment_rejected.empty()) {
     fit_ = refit;
     current_.set_drive_values(fit_.drive_values);
   } else {  // keep the data as recorded
+    if (!refit.valid) ladder_.alignment_rejected = "the starting model's refit on the shifted data failed: " + refit.reason;
+    spdlog::info("step 0: shifts not applied: {}", ladder_.alignment_rejected);
     ladder_.aligned = false;
     for (RoleLatency& l : ladder_.alignment) l.apply = false;
     training_ = training_in_;

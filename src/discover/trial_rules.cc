@@ -85,6 +85,22 @@ bool IsEgRelevant(const Trial& t, const LadderOptions& options) {
          std::abs(t.eg_shift_sigma) > options.eg_relevant_shift_sigma && std::abs(t.eg_shift_rel) > options.eg_relevant_shift_rel;
 }
 
+std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned) {
+  constexpr double kNoise = 0.002;  // relative: the samples trimmed at the segments' ends
+  const double ay = HeldOutRmse(aligned) / HeldOutRmse(recorded) - 1;
+  const bool both = BothOutputsScored(recorded, aligned);
+  const double yaw = both ? HeldOutYawRmse(aligned) / HeldOutYawRmse(recorded) - 1 : 0.0;
+  if (!(ay > kNoise || yaw > kNoise || ay + yaw >= 0)) return "";
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "the shifts raise a held-out RMSE or lower none: a_y %+.1f %%", 100 * ay);
+  std::string why = buf;
+  if (both) {
+    std::snprintf(buf, sizeof buf, ", yaw rate %+.1f %%", 100 * yaw);
+    why += buf;
+  }
+  return why;
+}
+
 bool KeepsSpeedScale(const Trial& t, bool both) {
   return t.held_out_after <= 1.01 * t.held_out_before && (!both || t.yaw_after <= 1.01 * t.yaw_before);
 }

@@ -51,6 +51,13 @@ void RecordEgShift(Trial& t, const identify::IdentificationResult& before, const
 // change and the EG shift.
 bool IsEgRelevant(const Trial& t, const LadderOptions& options);
 
+// Step 0's guard: the shifts are kept only when no fitted output's held-out RMSE rises by more
+// than 0.2 % (the shifted data lose a few samples at the segments' ends) and the outputs'
+// relative changes sum to a fall. A shift found on a failing model (an effect outside the model
+// reads as a lead or lag) otherwise pre-empts the effect and makes the held-out error worse.
+// "" when kept, else why not, in words.
+std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned);
+
 // The speed scale read from a_x is added first when neither held-out RMSE rises by more than 1 %.
 bool KeepsSpeedScale(const Trial& t, bool both);
 

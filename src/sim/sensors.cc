@@ -12,13 +12,35 @@ constexpr double kDeg = M_PI / 180.0;
 constexpr double kValidAfter_s = 0.3;  // sensors report "invalid" during initialisation after key-on
 }  // namespace
 
-SensorModel::SensorModel(const config::SimulationConfig& cfg, double dt_step_s, Rng& rng)
+SensorModel::Tones SensorModel::DrawTones(Rng& rng) {
+  Tones tones{};
+  double power = 0;
+  for (Tone& t : tones) {
+    t.hz = rng.Uniform(15.0, 35.0);
+    t.phase_rad = rng.Uniform(0.0, 2 * M_PI);
+    t.amplitude = rng.Uniform(0.5, 1.0);
+    power += 0.5 * t.amplitude * t.amplitude;
+  }
+  for (Tone& t : tones) t.amplitude /= std::sqrt(power);  // unit RMS
+  return tones;
+}
+
+double SensorModel::Vibration(const Tones& tones, double t_s) {
+  double x = 0;
+  for (const Tone& t : tones) x += t.amplitude * std::sin(2 * M_PI * t.hz * t_s + t.phase_rad);
+  return x;
+}
+
+SensorModel::SensorModel(const config::SimulationConfig& cfg, double dt_step_s, Rng& rng, uint64_t vibration_seed)
     : cfg_(cfg),
       dt_step_s_(dt_step_s),
       rng_(rng),
       disturbance_(cfg.noise.lat_accel_disturbance_mps2, cfg.noise.lat_accel_disturbance_tau_s),
       mu_esp_(cfg.effects.tyre_mu > 0.0 ? cfg.effects.tyre_mu : 1.0) {
   disturbance_.Reset(rng_);
+  Rng vibration_rng(vibration_seed);
+  accel_tones_ = DrawTones(vibration_rng);
+  gyro_tones_ = DrawTones(vibration_rng);
 }
 
 void SensorModel::PushSteer(double steer_sw_rad) { steer_history_.push_back(steer_sw_rad); }
@@ -100,13 +122,17 @@ void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) 
   // Latency: the sensed acceleration reaches the bus accel_delay_ms later (an exact delay).
   const double sensed_a_y = Delayed(sensed_a_y_, (1.0 + fx.accel_scale_pct / 100.0) * st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot,
                                     fx.accel_delay_ms / 1000.0);
-  out.a_y_meas_mps2.push_back(sensed_a_y + fx.accel_bias_mps2 + disturbance + nz.lat_accel_mps2 * n_ay);
+  // Vibration while moving (a raw IMU on a stiff mount), rising to its RMS by 5 m/s.
+  const double shaking = std::min(1.0, speed_abs / 5.0);
+  const double vib_a = fx.accel_vibration_mps2 > 0 ? fx.accel_vibration_mps2 * shaking * Vibration(accel_tones_, st.t) : 0.0;
+  const double vib_r = fx.gyro_vibration_degps > 0 ? fx.gyro_vibration_degps * kDeg * shaking * Vibration(gyro_tones_, st.t) : 0.0;
+  out.a_y_meas_mps2.push_back(sensed_a_y + fx.accel_bias_mps2 + disturbance + nz.lat_accel_mps2 * n_ay + vib_a);
   out.a_x_meas_mps2.push_back(st.a_x + nz.long_accel_mps2 * n_ax);
   // Gyro: r_meas = (1 + k_r) r + r0 + noise.
   // Latency: the yaw rate reaches the bus gyro_delay_ms later (an exact delay).
   const double sensed_r = Delayed(sensed_r_, st.r, fx.gyro_delay_ms / 1000.0);
   out.yaw_rate_meas_radps.push_back((1.0 + fx.gyro_scale_pct / 100.0) * sensed_r + fx.gyro_offset_degps * kDeg +
-                                    nz.yaw_rate_degps * kDeg * n_r);
+                                    nz.yaw_rate_degps * kDeg * n_r + vib_r);
 
   out.valid.push_back(st.t >= kValidAfter_s ? 1 : 0);
   out.esp_active.push_back((std::fabs(st.a_y) > 0.8 * mu_esp_ * g || std::fabs(st.beta) > 4.0 * kDeg) ? 1 : 0);

@@ -3,6 +3,7 @@
 // scale, offset and latency, gyro offset and scale, the accelerometer's and the gyro's latency) plus white noise and a slow zero-mean accelerometer disturbance. Private to src/sim.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <deque>
 #include <vector>
@@ -21,7 +22,9 @@ struct SampleTruth {
 
 class SensorModel {
  public:
-  SensorModel(const config::SimulationConfig& cfg, double dt_step_s, Rng& rng);
+  // vibration_seed: the stream of the vibration's tones (its own, so every other draw is the same
+  // with and without vibration).
+  SensorModel(const config::SimulationConfig& cfg, double dt_step_s, Rng& rng, uint64_t vibration_seed);
   void PushSteer(double steer_sw_rad);  // the true steering at every integration step
   void Record(const SampleTruth& truth, uint8_t gear, DriveSeries& out);
 
@@ -31,12 +34,22 @@ class SensorModel {
   // value before the history starts). Pushes `now` first; keeps the last kMaxDelaySamples.
   static double Delayed(std::deque<double>& history, double now, double delay_s);
 
+  // A structural vibration: a few tones of random frequency (15..35 Hz) and phase, unit RMS
+  // together; scaled by the effect's RMS while the car moves (rising to it by 5 m/s).
+  struct Tone {
+    double hz, phase_rad, amplitude;
+  };
+  using Tones = std::array<Tone, 4>;
+  static Tones DrawTones(Rng& rng);
+  static double Vibration(const Tones& tones, double t_s);
+
   const config::SimulationConfig& cfg_;
   double dt_step_s_;
   Rng& rng_;
   std::vector<double> steer_history_;
   std::deque<double> sensed_a_y_, sensed_r_, sensed_speed_;  // what the accelerometer, the gyro and the speed signal sense (latencies)
   OrnsteinUhlenbeck disturbance_;
+  Tones accel_tones_{}, gyro_tones_{};  // the accelerometer's and the gyro's vibration
   double mu_esp_;
 };
 

@@ -272,7 +272,7 @@ DriveResult SimulateDrive(const config::SimulationConfig& cfg, const DriverProfi
     drive_cfg.effects.gyro_offset_degps += gyro_rng.Uniform(-1.0, 1.0) * cfg.effects.gyro_offset_drive_degps;
   }
   result.gyro_offset_degps = drive_cfg.effects.gyro_offset_degps;
-  SensorModel sensors(drive_cfg, dt, sensor_rng);
+  SensorModel sensors(drive_cfg, dt, sensor_rng, MixSeed(cfg.seed, 1004 + 8 * static_cast<uint64_t>(index)));
   DriveState st;
   const double max_time = 3600.0 * 6.0 + plan.length_m / 2.0;
   DriveSeries& out = result.series;

@@ -2,6 +2,10 @@
 // the limits of the fit's checks, and the parameter box a config without one gets.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "minimal_config.h"
@@ -87,6 +91,48 @@ TEST(ConfigConditioning, ReadsTheLimitsOfTheFitsChecks) {
   EXPECT_DOUBLE_EQ(c.plausibility.halves_z_max, 5);
   const std::string e = ErrorOf(std::string(kMinimal) + "plausibility: {rmse_floor_ratio_max: 0.5}\n");
   EXPECT_NE(e.find("plausibility.rmse_floor_ratio_max: value 0.5 out of range"), std::string::npos) << e;
+}
+
+// Catches: identification.prior_from not read, the per-kg parameters not scaled by this
+// vehicle's mass, a model.priors entry overridden by the fleet's, or a broken file accepted.
+TEST(ConfigConditioning, AFleetPriorJoinsThePriorsScaledToThisVehiclesMass) {
+  const auto dir = std::filesystem::temp_directory_path() / ("ndsid_prior_from_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream f(dir / "fleet_prior.yaml");
+    f << "group: g\nparameters:\n  Jz_per_m: {mean: 1.4, sd: 0.1}\n  cv_per_m: {mean: 40, sd: 2}\n"
+         "  lv: {mean: 1.1, sd: 0.05}\n";
+  }
+  const std::string y = std::string(kMinimal) + "identification: {prior_from: fleet_prior.yaml}\n" +
+                        "model:\n  priors:\n    lv: {value: 1.2, sd: 0.01}\n";
+  const Config c = ParseConfig(y, (dir / "car.yaml").string());
+  auto find = [&](const std::string& n) -> const ParameterPrior* {
+    for (const auto& p : c.identification.priors)
+      if (p.name == n) return &p;
+    return nullptr;
+  };
+  ASSERT_NE(find("Jz"), nullptr);
+  EXPECT_DOUBLE_EQ(find("Jz")->value, 1.4 * 1500);  // per kg of this vehicle's 1500 kg
+  EXPECT_DOUBLE_EQ(find("Jz")->sd, 0.1 * 1500);
+  EXPECT_DOUBLE_EQ(find("cv")->value, 40 * 1500);
+  EXPECT_EQ(find("ch"), nullptr);                   // not in the fleet's file
+  EXPECT_DOUBLE_EQ(find("lv")->value, 1.2);         // the configuration's own prior wins
+  EXPECT_EQ(c.identification.priors.size(), 3u);
+  {
+    std::ofstream f(dir / "broken.yaml");
+    f << "parameters:\n  lv: {mean: -1, sd: 0.1}\n";
+  }
+  const std::string bad = std::string(kMinimal) + "identification: {prior_from: broken.yaml}\n";
+  try {
+    ParseConfig(bad, (dir / "car.yaml").string());
+    ADD_FAILURE() << "a negative mean was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("identification.prior_from"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("parameters.lv"), std::string::npos) << e.what();
+  }
+  const std::string missing = std::string(kMinimal) + "identification: {prior_from: nowhere.yaml}\n";
+  EXPECT_THROW(ParseConfig(missing, (dir / "car.yaml").string()), ConfigError);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -5,8 +5,10 @@
 #include "vehicle_init.h"
 
 #include <gtest/gtest.h>
+#include <spdlog/fmt/fmt.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +21,7 @@
 #include "ndsid/dbc/dbc_parser.h"
 #include "ndsid/sim/candump_writer.h"
 #include "ndsid/sim/simulator.h"
+#include "vehicle_init_detail.h"
 
 namespace ndsid::desk {
 namespace {
@@ -211,7 +214,7 @@ TEST_F(SimulatedBus, WrittenConfigLoadsAndListsRolesNotFound) {
   const InitResult r = Propose(dbc, log_);
   ASSERT_TRUE(r.MandatoryFound());
   EXPECT_FALSE(r.Find(Role::kLongitudinalAcceleration)->found);
-  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test"});
+  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", {}});
   EXPECT_NE(yaml.find("# longitudinal_acceleration: not found: no varying signal named like"), std::string::npos) << yaml;
   const fs::path out = dir_ / "vehicle.yaml";
   std::ofstream(out) << yaml;
@@ -240,7 +243,7 @@ TEST_F(SimulatedBus, WithoutAYawRateTheConfigFitsAyAlone) {
   ASSERT_TRUE(r.MandatoryFound());
   ASSERT_FALSE(r.Find(Role::kYawRate)->found);
   const fs::path out = dir_ / "no_yaw.yaml";
-  std::ofstream(out) << VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test"});
+  std::ofstream(out) << VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", {}});
   const config::Config c = config::LoadConfig(out.string());
   EXPECT_FALSE(c.identification.yaw_rate_output);
   EXPECT_TRUE(c.model_effects.empty());
@@ -261,7 +264,7 @@ TEST_F(SimulatedBus, FindsCoarsePlusFineSteeringPair) {
   const RoleProposal* p = r.Find(Role::kSteeringWheelAngle);
   EXPECT_TRUE(p->multi_signal);
   EXPECT_EQ(p->expression, "STEERING_SENSOR.SteeringWheelAngle + STEERING_SENSOR.SteeringAngleFine");
-  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, "split.dbc", "test"});
+  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, "split.dbc", "test", "sim", {}});
   EXPECT_NE(yaml.find("  steering_wheel_angle: {expr: \"STEERING_SENSOR.SteeringWheelAngle + STEERING_SENSOR.SteeringAngleFine\", "
                       "unit: deg, sign: 1, timeout_s: 0.1}"),
             std::string::npos)
@@ -277,6 +280,55 @@ TEST_F(SimulatedBus, CommentAndRangeDecideBetweenEqualCandidates) {
   dbc.insert(dbc.find(anchor), " SG_ SteeringAngleCopy : 7|16@0- (0.1,0) [0|0] \"deg\" LOGGER\n");
   const InitResult r = Propose(dbc, log_);
   ExpectRole(r, Role::kSteeringWheelAngle, "STEERING_SENSOR", "SteeringWheelAngle", "deg", 1);
+}
+
+// Wheel speeds are candidates by a corner in their name (English, German codes and words) and a
+// speed-like unit or name; the data then decide. Catches: German corners (VL/HR, "links vorne")
+// or rotational speeds (1/min) never proposed, and one wheel's speed taken for the vehicle's.
+TEST(VehicleInitNames, WheelCornersAndRotationalSpeeds) {
+  const std::string dbc =
+      "VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: ECU\n\n"
+      "BO_ 1 WHEELS: 8 ECU\n"
+      " SG_ WheelSpeedFL : 0|8@1+ (1,0) [0|255] \"km/h\" ECU\n"
+      " SG_ ESP_Raddrehzahl_HR : 8|8@1+ (1,0) [0|255] \"1/min\" ECU\n"
+      " SG_ Radgeschw_links_vorne : 16|8@1+ (1,0) [0|255] \"m/s\" ECU\n"
+      " SG_ WheelSpeedRearRight : 24|8@1+ (1,0) [0|255] \"\" ECU\n"
+      " SG_ Reifendruck_VL : 32|8@1+ (1,0) [0|255] \"bar\" ECU\n"
+      " SG_ Radimpulse_HL : 40|8@1+ (1,0) [0|255] \"\" ECU\n";
+  const dbc::Database db = dbc::ParseDbcText(dbc, "wheels.dbc");
+  const dbc::Message& m = db.messages.front();
+  auto corner = [&](const char* name) {
+    for (const auto& s : m.signals)
+      if (s.name == name) return init_detail::WheelCorner(m, s);
+    return -2;
+  };
+  EXPECT_EQ(corner("WheelSpeedFL"), 0);
+  EXPECT_EQ(corner("ESP_Raddrehzahl_HR"), 3);
+  EXPECT_EQ(corner("Radgeschw_links_vorne"), 0);
+  EXPECT_EQ(corner("WheelSpeedRearRight"), 3);
+  EXPECT_TRUE(init_detail::IsRpmUnit("1/min"));
+  EXPECT_TRUE(init_detail::IsRpmUnit("U/min"));
+  EXPECT_FALSE(init_detail::IsRpmUnit("km/h"));
+  // CollectSignals keeps only messages with a role-like signal; every signal here varies.
+  std::ostringstream log;
+  for (int i = 0; i < 50; ++i) {
+    log << "(" << 1000 + i << ".000000) can0 001#";
+    for (int b = 0; b < 6; ++b) log << fmt::format("{:02X}", (i * (b + 3)) % 251);
+    log << "0000\n";
+  }
+  const fs::path path = fs::path(NDSID_BINARY_DIR) / "tests" / "desk" / ("wheel_names." + std::to_string(::getpid()) + ".log");
+  std::ofstream(path) << log.str();
+  auto reader = can::OpenFrameLog(path.string());
+  uint64_t frames = 0;
+  bool truncated = false;
+  const init_detail::BusData data = init_detail::CollectSignals(db, *reader, "", 1000, frames, truncated);
+  std::vector<std::string> names;
+  for (const auto& c : init_detail::Candidates(data, init_detail::RoleKind::kWheelSpeed, 32)) names.push_back(c.expression);
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"WHEELS.ESP_Raddrehzahl_HR", "WHEELS.Radgeschw_links_vorne",
+                                             "WHEELS.WheelSpeedFL", "WHEELS.WheelSpeedRearRight"}));
+  EXPECT_TRUE(init_detail::Candidates(data, init_detail::RoleKind::kSpeed, 32).empty());  // no wheel is the vehicle speed
+  fs::remove(path);
 }
 
 // The real 2017 RAV4 segment (60 s of highway) with opendbc's Toyota DBC, against the hand-made
@@ -316,7 +368,7 @@ TEST(VehicleInitRealData, FindsTheRav4RolesAndSplitSteeringAngle) {
     EXPECT_DOUBLE_EQ(h->scale_to_si, p->sign * config::UnitToSi(role, p->unit)) << config::RoleKey(role);
   }
   // The role expression is written as such.
-  const std::string yaml = VehicleConfigYaml(r, {"rav4", log, dbc, "test"});
+  const std::string yaml = VehicleConfigYaml(r, {"rav4", log, dbc, "test", "rav4", {}});
   EXPECT_NE(yaml.find("steering_wheel_angle: {expr: \"STEER_ANGLE_SENSOR.STEER_ANGLE + STEER_ANGLE_SENSOR.STEER_FRACTION\", "
                       "unit: deg, sign: 1, timeout_s: "),
             std::string::npos)

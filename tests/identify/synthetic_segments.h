@@ -24,10 +24,19 @@ signals:
   steering_wheel_angle: {message: A, signal: B, unit: deg}
   vehicle_speed: {message: A, signal: C, unit: km/h}
   lateral_acceleration: {message: A, signal: D, unit: m/s^2}
+identification:
+  parameters:
+    m: {min: 1800, max: 2000, fixed: true}
+    Jz: {min: 2200, max: 3200}
+    cv: {min: 65000, max: 90000}
+    ch: {min: 110000, max: 135000}
+    lv: {min: 1.0, max: 1.3}
+    is: {min: 14.2, max: 15.3}
 )";
 
-// The identification settings a vehicle file gets by default (the study's box, m fixed at the
-// data-sheet 1900 kg), through the real config loader.
+// The identification settings of the synthetic car's vehicle file (the study's box of its class,
+// as config/example_vehicle.yaml states it; m fixed at the data-sheet 1900 kg), through the real
+// config loader.
 inline config::IdentificationConfig DefaultIdentificationConfig() {
   return config::ParseConfig(kMinimalVehicleYaml, "test.yaml").identification;
 }

@@ -43,6 +43,7 @@ struct ReplayTweaks {
   // the harness's replays were measured on a_y alone, and the tests of both outputs refit with
   // their own IdentificationConfig.
   bool yaw_rate_output = false;
+  double lowpass_hz = 0;  // signals.<role>.lowpass_hz on a_y and the yaw rate (0: none)
 };
 
 inline std::string TempDir(const std::string& name) {
@@ -67,6 +68,9 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.config->model_effects = model_effects;
   run.config->identification.yaw_rate_output = tweaks.yaw_rate_output;
   if (tweaks.identify_every_s > 0) run.config->identification.period_s = tweaks.identify_every_s;
+  for (config::Role role : {config::Role::kLateralAcceleration, config::Role::kYawRate}) {
+    if (run.config->roles[static_cast<int>(role)]) run.config->roles[static_cast<int>(role)]->lowpass_hz = tweaks.lowpass_hz;
+  }
   run.db = std::make_unique<dbc::Database>(dbc::ParseDbcFile(run.config->dbc));
   const std::string log = TempDir(name) + "/drive.log";
   {

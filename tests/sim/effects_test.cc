@@ -75,6 +75,46 @@ TEST(Effects, GyroOffsetAndScaleFollowTheirEquationEverywhere) {
   }
 }
 
+TEST(Effects, VibrationAddsItsRmsAbove5MpsInThe15To35HzBandOnly) {
+  // Catches a vibration of the wrong size, at standstill, outside its band, on the truth, or one
+  // that shifts the other random streams: the difference on-off is the vibration alone, RMS 3 m/s^2
+  // (a_y) and 1.5 deg/s (yaw) above 5 m/s, zero at standstill, and with no mean (it averages out
+  // over 0.5 s, so a low-pass below 15 Hz removes it).
+  const auto p = RunPair([](config::SimEffects& e) {
+    e.accel_vibration_mps2 = 3;
+    e.gyro_vibration_degps = 1.5;
+  });
+  ExpectSameTruth(p);
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    ASSERT_EQ(a.speed_meas_mps, b.speed_meas_mps);
+    ASSERT_EQ(a.steer_sw_meas_rad, b.steer_sw_meas_rad);
+    double sa = 0, sr = 0, window_mean_max = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+      const double da = b.a_y_meas_mps2[i] - a.a_y_meas_mps2[i], dr = b.yaw_rate_meas_radps[i] - a.yaw_rate_meas_radps[i];
+      // Fading out towards standstill: at most the tones' peak (2.83 x RMS) times v / 5 m/s.
+      if (std::abs(a.speed_mps[i]) < 0.01) {
+        ASSERT_LE(std::abs(da), 3 * 2.83 * std::abs(a.speed_mps[i]) / 5 + 1e-12);
+        ASSERT_LE(std::abs(dr), 1.5 * M_PI / 180 * 2.83 * std::abs(a.speed_mps[i]) / 5 + 1e-12);
+      }
+      if (std::abs(a.speed_mps[i]) < 5) continue;
+      sa += da * da;
+      sr += dr * dr;
+      ++n;
+      if (i >= 50 && std::abs(a.speed_mps[i - 50]) >= 5) {
+        double m = 0;
+        for (size_t k = i - 49; k <= i; ++k) m += b.a_y_meas_mps2[k] - a.a_y_meas_mps2[k];
+        window_mean_max = std::max(window_mean_max, std::abs(m / 50));
+      }
+    }
+    ASSERT_GT(n, 5000u);  // more than 50 s above 5 m/s per drive
+    EXPECT_NEAR(std::sqrt(sa / n), 3.0, 0.3) << d;
+    EXPECT_NEAR(std::sqrt(sr / n) * 180 / M_PI, 1.5, 0.15) << d;
+    EXPECT_LT(window_mean_max, 0.5) << d;  // 0.5 s means: a few percent of the RMS
+  }
+}
+
 TEST(Effects, GyroAndAccelerometerLatenciesDelayWhatTheySense) {
   // Catches a latency applied to the truth, in the wrong direction (an advance), in the wrong unit,
   // or to the bias and noise: with the same noise draws r_meas,on - r_meas,off = r(t - tau) - r(t),

@@ -116,6 +116,9 @@ struct ParameterPrior {
 struct IdentificationConfig {
   std::array<ParameterSpec, 6> params;  // order of ndsid::model::ParamIndex
   std::vector<ParameterPrior> priors;   // from model.priors; applied when the model has the parameter
+  // identification.prior_from: a fleet prior (fleet_prior.yaml of `ndsid fleet`, docs/fleet.md)
+  // whose parameters join `priors` where model.priors does not name them; resolved path, "" = none.
+  std::string prior_from;
   double rate_hz = 50.0;        // decimated rate of the dynamic fit
   double burn_in_s = 1.5;       // residuals discarded at each chunk start (unknown initial state)
   double chunk_s = 60.0;        // long segments are simulated in independent chunks of this length

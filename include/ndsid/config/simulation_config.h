@@ -34,6 +34,8 @@ struct SimEffects {
   double gyro_delay_ms = 0.0;            // yaw-rate sensor latency: r_meas(t) = r(t - tau)
   double accel_delay_ms = 0.0;           // accelerometer latency: a_y,meas(t) = a_y,sensed(t - tau)
   double mass_change_kg = 0.0;           // per drive: m_i = m + U(-dm, +dm) (Jz scaled with m_i/m)
+  double accel_vibration_mps2 = 0.0;     // RMS of a 15..35 Hz vibration on the accelerometer while moving
+  double gyro_vibration_degps = 0.0;     // RMS of a 15..35 Hz vibration on the gyro while moving
   std::vector<double> mass_schedule_kg;  // if non-empty: m_i = m + schedule[i % size] (overrides)
 
   bool roll_on() const { return roll_gradient_deg_per_g != 0.0; }

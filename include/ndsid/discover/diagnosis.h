@@ -169,6 +169,7 @@ struct Ladder {
   std::string stop_reason;
   std::vector<RoleLatency> alignment;      // step 0 (empty when not asked for)
   bool aligned = false;                    // some latency applied: rungs are fits on shifted data
+  std::string alignment_rejected;          // significant shifts not applied, and why ("" otherwise)
   identify::IdentificationResult before_alignment;   // the starting model on the data as recorded
   std::vector<OutputVerdict> verdicts;     // the final model's outputs against their noise floors
   // Empty when EG is settled; else which refits of the last rung move EG, by how much (LadderOptions).

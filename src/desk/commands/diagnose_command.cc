@@ -130,6 +130,10 @@ std::map<config::Role, double> ReportAlignment(const discover::Ladder& ladder, c
     r.md += "\nAligned: RMSE train " + Fmt("%.4f → %.4f", b.rmse_train_mps2, f.rmse_train_mps2) + ", held-out " +
             Fmt("%.4f → %.4f", b.rmse_validation_mps2, f.rmse_validation_mps2) + ", EG " +
             Fmt("%.3f → %.3f deg/g", b.eg_deg_per_g, f.eg_deg_per_g) + ". The ladder below works on the aligned data.\n\n";
+  } else if (!ladder.alignment_rejected.empty()) {
+    std::printf("  not applied: %s; the ladder works on the data as recorded\n", ladder.alignment_rejected.c_str());
+    r.md += "\nNo latency applied (" + ladder.alignment_rejected + "): the ladder works on the data as recorded.\n\n";
+    r.j["alignment_rejected"] = ladder.alignment_rejected;
   } else {
     r.md += "\nNo latency applied: the ladder works on the data as recorded.\n\n";
   }
