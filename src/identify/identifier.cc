@@ -15,20 +15,19 @@
 #include <optional>
 #include <sstream>
 
-#include "active_set.h"
 #include "chunk_cost.h"
 #include "evidence_priors.h"
+#include "fit_problem.h"
 #include "half_estimates.h"
 #include "parallel.h"
 #include "quadratic_prior.h"
 #include "residual_sums.h"
+#include "window_solve.h"
 
 namespace ndsid::identify {
 
 std::string CeresVersion() { return CERES_VERSION_STRING; }
 namespace {
-
-using CostFn = CompressedChunkCost;
 
 std::string DescribeDirection(const Eigen::VectorXd& v, const std::vector<int>& free, const model::ModelSpec& spec) {
   std::ostringstream os;
@@ -39,41 +38,6 @@ std::string DescribeDirection(const Eigen::VectorXd& v, const std::vector<int>& 
     os << (v[k] >= 0 ? " +" : " ") << v[k] << ' ' << spec.param_name(free[k]);
   }
   return os.str();
-}
-
-struct Bound {
-  double lower, upper, initial;
-  bool fixed;
-};
-
-// The chunk residuals at theta, one series per chunk and output: a_y series in `a`, yaw-rate
-// series in `r` (as weighted by the costs' current weights).
-void EvaluateSeries(const std::vector<std::unique_ptr<CostFn>>& costs, const std::vector<size_t>& n_a,
-                    const double* theta, std::vector<std::vector<double>>& a, std::vector<std::vector<double>>& r,
-                    int threads) {
-  a.clear();
-  r.clear();
-  const double* params[] = {theta};
-  std::vector<std::vector<double>> e(costs.size());
-  ParallelFor(costs.size(), threads, [&](size_t c) {
-    e[c].resize(static_cast<size_t>(costs[c]->full().num_residuals()));
-    costs[c]->full().Evaluate(params, e[c].data(), nullptr);
-  });
-  for (size_t c = 0; c < costs.size(); ++c) {
-    a.emplace_back(e[c].begin(), e[c].begin() + static_cast<long>(n_a[c]));
-    if (e[c].size() > n_a[c]) r.emplace_back(e[c].begin() + static_cast<long>(n_a[c]), e[c].end());
-    std::vector<double>().swap(e[c]);
-  }
-}
-
-// sigma_e^2 * tau of the (weighted) chunk residuals at theta, each output's series separately
-// (the weight of a prior).
-double NoiseLevel(const std::vector<std::unique_ptr<CostFn>>& costs, const std::vector<size_t>& n_a,
-                  const double* theta, int threads) {
-  std::vector<std::vector<double>> a, r;
-  EvaluateSeries(costs, n_a, theta, a, r, threads);
-  a.insert(a.end(), r.begin(), r.end());
-  return ResidualNoiseLevel(a, threads);
 }
 
 // The quadratics are straight valleys where the true cost's valley is curved: along directions
@@ -119,9 +83,6 @@ constexpr double kExactSigmaCheck = 0.01;
 // the optimum while they take at most this much memory (64 MiB hold about 150 one-minute chunks at
 // 50 Hz with both outputs and 8 parameters).
 constexpr size_t kKeepLastBytes = size_t{64} << 20;
-// The coarse start's solves (IdentificationConfig::coarse_min_chunks) stop after this many
-// iterations each.
-constexpr int kCoarseIterations = 25;
 
 }  // namespace
 
@@ -248,32 +209,15 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     lap = now;
   };
   const int np = spec_.num_params();
-  // Box, initial values and scaling of every parameter: base from configuration, effects from
-  // the effect library. theta_i = p_i / scale_i keeps every unknown O(1) for the solver.
-  std::vector<Bound> bounds(static_cast<size_t>(np));
-  std::vector<double> scale(static_cast<size_t>(np));
-  for (int i = 0; i < np; ++i) {
-    if (i < model::kNumParams) {
-      const auto& c = config_.params[i];
-      bounds[i] = {c.lower, c.upper, c.initial, c.fixed};
-      scale[i] = c.initial;
-    } else {
-      const model::EffectParam* e = spec_.effect_param(i);
-      // A per-drive parameter with a common mode is neutral on the reference drive (effect.h).
-      if (e->pinned_at_reference()) {
-        bounds[i] = {e->lower, e->upper, e->neutral, true};
-      } else {
-        bounds[i] = {e->lower, e->upper, e->initial, false};
-      }
-      scale[i] = 0.5 * (e->upper - e->lower);
-    }
-  }
-  std::vector<double> theta(static_cast<size_t>(np));
-  for (int i = 0; i < np; ++i) {
-    double v = bounds[i].initial;
-    if (warm_start && i < static_cast<int>(warm_start->size()) && !bounds[i].fixed) v = (*warm_start)[i];
-    theta[i] = std::clamp(v, bounds[i].lower, bounds[i].upper) / scale[i];
-  }
+  const FitSettings settings{config_, spec_, wheelbase_m_, drive_overrides_};
+  const ParameterBox box = ParameterBox::Make(config_, spec_);
+  const std::vector<ParameterBox::Bound>& bounds = box.bounds;
+  const std::vector<double>& scale = box.scale;
+  const std::vector<int>& free = box.free;
+  std::vector<double> theta = box.Start(warm_start);
+  FitProblem fit(settings, scale, theta.data());
+  std::vector<Chunk>& chunks = fit.chunks;
+  std::vector<const stats::Segment*>& chunk_segment = fit.chunk_segment;
 
   // Incremental update (docs/incremental.md): the training segments the prior holds enter the
   // fit as their chunks' quadratics; the others are simulated.
@@ -381,31 +325,18 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     return out;
   };
   const std::vector<double> theta0 = theta;  // the start: the anchor along the prior's weak directions
-  std::vector<Chunk> chunks;
-  std::vector<const stats::Segment*> chunk_segment;  // the segment each chunk was cut from
-  auto cut = [&](const SegmentList& segs) {
-    for (const stats::Segment* seg : segs) {
-      for (const Chunk& c : MakeChunks({seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_)) {
-        chunks.push_back(c);
-        chunk_segment.push_back(seg);
-      }
-    }
-  };
-  cut(simulated);
+  fit.Cut(simulated);
   if (chunks.empty() && from_prior.empty()) {
     r.reason = "no gated segment long enough for the dynamic fit";
     return r;
   }
 
-  ceres::Problem::Options problem_options;
-  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
+  ceres::Problem& problem = fit.problem;
   // Outputs: a_y alone (weight 1: the classical fit), or a_y and the yaw rate, each divided by
   // the square root of its noise level sigma^2 tau, first at the start values, then (below) at
   // the solution, refitting once when the ratio of the two moved by more than 1.5x.
   // With a prior, its weights hold (the outputs must be the same as when it was built).
-  size_t chunks_with_yaw = 0;
-  for (const Chunk& c : chunks) chunks_with_yaw += c.has_yaw_rate() ? 1 : 0;
+  size_t chunks_with_yaw = fit.ChunksWithYawRate();
   // A prior segment counts by its data, not by its quadratics: those of a prior built for a_y
   // alone hold no yaw-rate residuals even where the data have a yaw rate.
   for (const PriorSegment& ps : from_prior) chunks_with_yaw += ps.seg->has_yaw_rate ? ps.lin->chunks.size() : 0;
@@ -426,33 +357,17 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   for (const PriorSegment& ps : from_prior) prior_chunks += ps.lin->chunks.size();
   if (prior && two_outputs && chunks.size() >= prior_chunks)
     return whole_window("incremental: more chunks to simulate than the prior holds, so fitted as the whole window");
-  auto weights = std::make_shared<OutputWeights>();
+  std::shared_ptr<OutputWeights>& weights = fit.weights;
   weights->yaw_rate = two_outputs ? 1.0 : 0.0;
   if (prior) *weights = {prior->weight_a_y, prior->weight_yaw_rate};
-  std::vector<std::unique_ptr<CostFn>> costs;
-  std::vector<size_t> n_a;  // a_y residuals per cost (the yaw-rate ones follow)
-  costs.reserve(chunks.size());
-  size_t n_res = 0, n_res_a = 0;
-  auto add_costs = [&](size_t first) {
-    for (size_t ci = first; ci < chunks.size(); ++ci) {
-      const Chunk& c = chunks[ci];
-      const size_t burn = BurnInSamples(c, config_.burn_in_s);
-      costs.push_back(std::make_unique<CostFn>(MakeChunkCost(c, burn, wheelbase_m_, spec_, scale, weights), weights));
-      problem.AddResidualBlock(costs.back().get(), nullptr, theta.data());
-      n_res += static_cast<size_t>(costs.back()->full().num_residuals());
-      n_a.push_back(c.n - burn);
-      n_res_a += c.n - burn;
-    }
-  };
-  add_costs(0);
+  auto& costs = fit.costs;
+  const std::vector<size_t>& n_a = fit.n_a;
+  size_t& n_res = fit.n_res;
+  size_t& n_res_a = fit.n_res_a;
+  fit.AddCosts();
   // An update on a prior keeps each new chunk's last evaluation with its Jacobian for the
   // statistics at the optimum (chunk_cost.h), up to kKeepLastBytes of them.
-  if (prior) {
-    size_t bytes = 0;
-    for (const auto& c : costs) bytes += static_cast<size_t>(c->full().num_residuals()) * (static_cast<size_t>(np) + 1) * sizeof(double);
-    if (bytes <= kKeepLastBytes)
-      for (auto& c : costs) c->keep_last(true);
-  }
+  if (prior) fit.KeepLastWithin(kKeepLastBytes);
   // With both outputs, the weights of the whole window: the new data's noise level per output at
   // the start values pooled with the prior's (its chunks' autocorrelation sums, unweighted), as a
   // full fit sets them from all the data. A prior that keeps each chunk's yaw-rate part is
@@ -461,7 +376,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   if (prior && two_outputs && !from_prior.empty() && prior->Reweightable()) {
     *weights = {1.0, 1.0};
     std::vector<std::vector<double>> a, rr;
-    EvaluateSeries(costs, n_a, theta.data(), a, rr, config_.threads);
+    fit.EvaluateSeries(a, rr);
     *weights = {prior->weight_a_y, prior->weight_yaw_rate};
     std::vector<double> acf_a(kAcfMaxLag + 1, 0.0), acf_r(kAcfMaxLag + 1, 0.0);
     double na = AddSeriesSums(a, acf_a);
@@ -500,14 +415,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // w: other output weights than the fit's (the held-out chunks' unit weights).
   auto evaluate_at_theta = [&](const Chunk& c, std::vector<double>& e, std::vector<double>& jac,
                                std::shared_ptr<const OutputWeights> w = nullptr) {
-    const auto cost = MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale, w ? w : weights);
-    const size_t m = static_cast<size_t>(cost->num_residuals());
-    e.resize(m);
-    jac.resize(m * static_cast<size_t>(np));
-    const double* pp[] = {theta.data()};
-    double* jj[] = {jac.data()};
-    const auto finite = [](double x) { return std::isfinite(x); };
-    return cost->Evaluate(pp, e.data(), jj) && std::all_of(e.begin(), e.end(), finite) && std::all_of(jac.begin(), jac.end(), finite);
+    return settings.EvaluateAt(c, scale, w ? w : weights, theta, e, jac);
   };
   std::shared_ptr<LinearizedWindow> relinearized;
   auto relinearize = [&](const std::vector<size_t>& stale) -> bool {
@@ -559,205 +467,60 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   }
   // The noise level of the (weighted) residuals at theta, pooled with the prior's chunks.
   auto noise_level = [&]() {
-    if (!prior) return NoiseLevel(costs, n_a, theta.data(), config_.threads);
+    if (!prior) return fit.NoiseLevel();
     std::vector<std::vector<double>> a, rr;
-    EvaluateSeries(costs, n_a, theta.data(), a, rr, config_.threads);
+    fit.EvaluateSeries(a, rr);
     std::vector<double> acf(kAcfMaxLag + 1, 0.0);
     double n = AddSeriesSums(a, acf);  // in this order: the sums add up in it
     n += AddSeriesSums(rr, acf);
     n += add_prior_sums(acf);
     return LevelOfSums(acf, n);
   };
-  // Unweighted noise levels (sigma^2 tau) of each output at theta; sets the weights from them.
-  double level_a = 0, level_r = 0;
-  auto set_weights = [&]() {
-    if (!two_outputs) return false;
-    const OutputWeights old = *weights;
-    *weights = {1.0, 1.0};
-    std::vector<std::vector<double>> a, rr;
-    EvaluateSeries(costs, n_a, theta.data(), a, rr, config_.threads);
-    level_a = ResidualNoiseLevel(a, config_.threads);
-    level_r = ResidualNoiseLevel(rr, config_.threads);
-    if (!(level_a > 0) || !(level_r > 0) || !std::isfinite(level_a) || !std::isfinite(level_r)) {
-      *weights = old;
-      return false;
-    }
-    *weights = {1.0 / std::sqrt(level_a), 1.0 / std::sqrt(level_r)};
-    const double ratio_old = old.yaw_rate / old.a_y, ratio_new = weights->yaw_rate / weights->a_y;
-    return ratio_new * ratio_new > 1.5 * ratio_old * ratio_old || ratio_new * ratio_new < ratio_old * ratio_old / 1.5;
-  };
+  auto set_weights = [&]() { return fit.EstimateWeights(two_outputs); };
   if (!prior) set_weights();
-  std::vector<int> fixed, free;
-  for (int i = 0; i < np; ++i) (bounds[i].fixed ? fixed : free).push_back(i);
   if (free.empty()) {
     r.reason = "every parameter is fixed";
     return r;
   }
-  // The box and the fixed parameters of a problem on theta (the whole window's, the coarse start's).
-  auto constrain = [&](ceres::Problem& pr) {
-    for (int i = 0; i < np; ++i) {
-      pr.SetParameterLowerBound(theta.data(), i, bounds[i].lower / scale[i]);
-      pr.SetParameterUpperBound(theta.data(), i, bounds[i].upper / scale[i]);
-    }
-    if (!fixed.empty()) pr.SetManifold(theta.data(), new ceres::SubsetManifold(np, fixed));
-  };
-  constrain(problem);
-  std::vector<std::unique_ptr<PriorCost>> priors;
-  for (const config::ParameterPrior& pr : config_.priors) {
-    for (int i = 0; i < np; ++i) {
-      if (spec_.param_name(i) != pr.name || bounds[i].fixed) continue;
-      priors.push_back(std::make_unique<PriorCost>(np, i, scale[i], pr.value, pr.sd));
-      problem.AddResidualBlock(priors.back().get(), nullptr, theta.data());
-    }
-  }
-  // Standstill evidence: a prior from the stops of the training drives on gyro_offset and
-  // accel_bias (docs/two-outputs.md). A configured prior on the same parameter wins.
-  std::set<int64_t> training_drives;
-  for (const stats::Segment* seg : training) training_drives.insert(seg->drive_id);
-  std::vector<std::string> evidence_notes;
-  // A per-drive parameter's entry of the vector is the value of the drives that have no value of
-  // their own (the reference drive; every drive before the first per-drive fit): their stops.
-  std::set<int64_t> slot_drives;
-  for (int64_t d : training_drives)
-    if (!drive_overrides_.count(d)) slot_drives.insert(d);
-  const std::vector<StandstillPrior> slot_evidence = StandstillPriors(slot_drives);
-  for (StandstillPrior sp : StandstillPriors(training_drives)) {
-    const bool configured = HasConfiguredPrior(config_, sp.param);
-    for (int i = model::kNumParams; i < np && !configured; ++i) {
-      if (spec_.param_name(i) != sp.param || bounds[i].fixed) continue;
-      if (spec_.effect_param(i)->per_drive && slot_drives.size() != training_drives.size()) {
-        const auto it = std::find_if(slot_evidence.begin(), slot_evidence.end(),
-                                     [&](const StandstillPrior& x) { return x.param == sp.param; });
-        if (it == slot_evidence.end()) continue;
-        sp = *it;
-      }
-      priors.push_back(std::make_unique<PriorCost>(np, i, scale[i], sp.value, sp.sd));
-      problem.AddResidualBlock(priors.back().get(), nullptr, theta.data());
-      char note[256];
-      std::snprintf(note, sizeof note, "standstill evidence on %s: %.4g +- %.2g from %zu stops (%.0f s); its standard error includes it",
-                    sp.param.c_str(), sp.value, sp.sd, sp.stops, sp.seconds);
-      evidence_notes.push_back(note);
-    }
-  }
-  // The speed signal's scale read against a_x (stats/speed_scale.h): a prior on speed_scale,
-  // which a_y and r cannot tell from an accelerometer scale. A configured prior wins.
-  const bool speed_configured = HasConfiguredPrior(config_, "speed_scale");
-  for (int i = model::kNumParams; i < np && !speed_configured; ++i) {
-    if (spec_.param_name(i) != "speed_scale" || bounds[i].fixed) continue;
-    const stats::SpeedScaleEvidence ev = stats::EstimateSpeedScale(training);
-    if (!ev.available) {
-      evidence_notes.push_back(ev.note + ": no prior on speed_scale from it");
-      break;
-    }
-    priors.push_back(std::make_unique<PriorCost>(np, i, scale[i], ev.scale, ev.prior_sd));
-    problem.AddResidualBlock(priors.back().get(), nullptr, theta.data());
-    char note[320];
-    std::snprintf(note, sizeof note, "%s: a prior on speed_scale, sd %.2g (with the accelerometer's own scale tolerance); "
-                  "its standard error includes it", ev.note.c_str(), ev.prior_sd);
-    evidence_notes.push_back(note);
-  }
+  box.Constrain(problem, theta.data());
+  EvidencePriors priors;
+  priors.Build(settings, box, training, standstill_);
+  priors.AddTo(problem, theta.data());
   // The priors' weight: the noise level of the residuals at theta (the scale of a residual's
   // information); taken again wherever the weights or the fit moved it.
-  double prior_weight = 0;
   auto reweight_priors = [&]() {
     if (priors.empty()) return;
-    prior_weight = noise_level();
-    for (auto& pc : priors) pc->set_weight(prior_weight);
+    priors.SetWeight(noise_level());
   };
   reweight_priors();
 
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  options.max_num_iterations = config_.max_iterations;
-  options.num_threads = config_.threads;
-  options.function_tolerance = 1e-10;
-  options.parameter_tolerance = 1e-10;
-  options.gradient_tolerance = 1e-12;
-  options.logging_type = ceres::SILENT;
-  // No projected line search after each trust-region step: Ceres runs one for every problem
-  // with bounds, evaluating the cost and its Jacobian at the trial step before the step's own
-  // evaluation, and it nearly always keeps the full step. The bounds still hold through the
-  // step's projection, and the active set holds parameters that settle on them.
-  options.max_num_line_search_step_size_iterations = 0;
-  ceres::Solver::Summary summary;
-  // Every solve holds the parameters that settle on a bound (active_set.h): Ceres's projected
-  // steps crawl there. Returns the iterations of all its rounds.
-  // An incremental update starts at the last solution: the parameters it left on a bound are
-  // held from the first round (the KKT check releases them), and each solve of the update starts
-  // with the active set of the one before.
-  // (SolveWithActiveSet holds only those of start_held that sit on a bound.)
-  std::vector<int> active = prior ? free : std::vector<int>{};
-  auto solve = [&](const ceres::Solver::Options& o, ceres::Problem& pr, ceres::Solver::Summary& s) {
-    const ActiveSetSolve a = SolveWithActiveSet(o, pr, theta.data(), np, fixed, s, 2, 0, prior ? active : std::vector<int>{});
-    if (prior) active = a.held;
-    if (a.rounds > 1)
-      spdlog::debug("active set: {} rounds, {} iterations, {} held at the end, {} released{}", a.rounds, a.iterations,
-                    a.held.size(), a.released.size(), a.fallback ? ", finished by a plain projected solve" : "");
-    return static_cast<int>(a.iterations);
-  };
+  WindowSolver solver(config_, box, theta.data(), prior != nullptr);
   // Coarse start of a large fit without a prior: the solver first runs on every k-th chunk, about
-  // coarse_chunks of them (interleaved over the whole window, so every part of it is represented),
-  // then finishes on the whole window from there. The optimum is the whole window's; the start
-  // only saves the whole window's early iterations, each a simulation of every chunk with
-  // derivatives. The same costs, bounds, fixed set and priors; the priors keep their weight, so
-  // they count relatively more on the subset, which moves only the start.
-  if (!prior && config_.coarse_min_chunks > 0 && config_.coarse_chunks > 0 && costs.size() >= config_.coarse_min_chunks &&
-      costs.size() >= 2 * config_.coarse_chunks) {
-    ceres::Problem coarse(problem_options);
-    const size_t stride = costs.size() / config_.coarse_chunks;
-    for (size_t i = stride / 2; i < costs.size(); i += stride) coarse.AddResidualBlock(costs[i].get(), nullptr, theta.data());
-    for (auto& pc : priors) coarse.AddResidualBlock(pc.get(), nullptr, theta.data());
-    constrain(coarse);
-    // A warm start may already be the whole window's optimum (the last fit); the subset's
-    // solution, a subset's statistical scatter away, would then be the worse start. The start
-    // kept is the one with the lower whole-window cost (one pass of residuals each, same weights).
-    ceres::Problem::EvaluateOptions eval_options;
-    eval_options.num_threads = config_.threads;
-    double cost_start = 0, cost_coarse = 0;
-    const std::vector<double> start = theta;
-    const bool evaluated = problem.Evaluate(eval_options, &cost_start, nullptr, nullptr, nullptr);
-    // Its solves are capped at kCoarseIterations: a subset that converges slowly (few chunks,
-    // weakly determined directions) hands over where it is; the whole window finishes.
-    ceres::Solver::Options coarse_options = options;
-    coarse_options.max_num_iterations = std::min(options.max_num_iterations, kCoarseIterations);
-    ceres::Solver::Summary coarse_summary;
-    r.coarse_iterations = solve(coarse_options, coarse, coarse_summary);
-    bool use = evaluated && coarse_summary.IsSolutionUsable() &&
-               problem.Evaluate(eval_options, &cost_coarse, nullptr, nullptr, nullptr) && cost_coarse < cost_start;
-    // With two outputs, the output weights are then estimated at the coarse solution (from every
-    // chunk's residuals) instead of at the start values, and the subset refitted while they moved
-    // by more than 1.5x (at most twice); the whole window then starts with weights near its own.
-    // With one output the whole-window problem is the one it would be without the coarse start.
-    // If a round's solve fails, theta goes back to the start below but the weights stay at the
-    // estimate from the subset's solution; the whole window's own check at its solution (refit
-    // once when the weights moved 1.5x) still applies.
-    for (int round = 0; use && two_outputs && round < 2 && set_weights(); ++round) {
+  // coarse_chunks of them, then finishes on the whole window from there.
+  if (!prior && solver.WantsCoarseStart(costs.size())) {
+    const CoarseStart coarse = solver.SolveCoarse(fit, priors, [&]() {
+      if (!set_weights()) return false;
       reweight_priors();
-      r.coarse_iterations += solve(coarse_options, coarse, coarse_summary);
-      use = coarse_summary.IsSolutionUsable();
-    }
-    if (!use) std::copy(start.begin(), start.end(), theta.begin());
-    r.coarse_start_used = use;
-    spdlog::debug("coarse start on every {}th of {} chunks: {} iterations, {}; whole-window cost {:.8g} at the start, "
-                  "{:.8g} there: {}", stride, costs.size(), r.coarse_iterations,
-                  ceres::TerminationTypeToString(coarse_summary.termination_type), cost_start, cost_coarse,
-                  use ? "used" : "the start kept");
+      return true;
+    });
+    r.coarse_iterations = coarse.iterations;
+    r.coarse_start_used = coarse.used;
   }
   mark(0);
-  r.iterations = solve(options, problem, summary);
+  const ceres::Solver::Summary& summary = solver.summary();
+  r.iterations = solver.Solve(problem);
   if (two_outputs && !prior && summary.IsSolutionUsable() && set_weights()) {
     // The outputs' noise levels at the solution differ from those at the start: refit once.
     reweight_priors();
-    r.iterations += solve(options, problem, summary);
+    r.iterations += solver.Solve(problem);
     spdlog::debug("two outputs: refitted with weights a_y {:.4g}, yaw rate {:.4g}", weights->a_y, weights->yaw_rate);
   }
   if (!priors.empty() && summary.IsSolutionUsable()) {
     // The priors' weight was the noise level at the start; refit once if the fit moved it much.
     const double w = noise_level();
-    if (w > 0 && (w > 2 * prior_weight || w < 0.5 * prior_weight)) {
-      prior_weight = w;
-      for (auto& pc : priors) pc->set_weight(prior_weight);
-      r.iterations += solve(options, problem, summary);
+    if (w > 0 && (w > 2 * priors.weight() || w < 0.5 * priors.weight())) {
+      priors.SetWeight(w);
+      r.iterations += solver.Solve(problem);
     }
   }
   // Incremental: if the solution left some prior segments' linearisation points, relinearise
@@ -925,7 +688,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     if (!relinearize(stale)) return whole_window(kNotRelinearized);
     set_quadratic();
     mark(2);
-    r.iterations += solve(options, problem, summary);
+    r.iterations += solver.Solve(problem);
     mark(1);
   }
   mark(2);
@@ -1076,12 +839,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     for (int b = 0; b < nf; ++b) jtj_f(a, b) = jtj(free[a], free[b]);
   const double sigma2 = rss / std::max<double>(1.0, static_cast<double>(n_res) - nf);
   // Prior information in theta space (zero without priors).
-  Eigen::MatrixXd prior_info = Eigen::MatrixXd::Zero(nf, nf);
-  for (const auto& pc : priors) {
-    for (int a = 0; a < nf; ++a) {
-      if (free[a] == pc->index()) prior_info(a, a) += pc->information_theta();
-    }
-  }
+  const Eigen::MatrixXd prior_info = priors.InformationTheta(free);
 
   // Gradient of EG with respect to theta (free base parameters), by forward-mode autodiff.
   using Jet6 = ceres::Jet<double, 6>;
@@ -1163,16 +921,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     Eigen::VectorXd grad = Eigen::VectorXd::Zero(np);
     for (const Eigen::VectorXd& sc : chunk_scores) grad += sc;
     Eigen::MatrixXd hp = Eigen::MatrixXd::Zero(np, np);
-    std::vector<double> jrow(static_cast<size_t>(np));
-    for (const auto& pc : priors) {
-      double res = 0;
-      const double* pp[] = {theta.data()};
-      double* jj[] = {jrow.data()};
-      pc->Evaluate(pp, &res, jj);
-      const Eigen::Map<const Eigen::VectorXd> jv(jrow.data(), np);
-      grad += jv * res;
-      hp += jv * jv.transpose();
-    }
+    priors.AddPull(theta.data(), grad, hp);
     Eigen::MatrixXd hf(nf, nf);
     Eigen::VectorXd gf(nf);
     for (int a = 0; a < nf; ++a) {
@@ -1206,8 +955,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     hc.scale = scale;
     for (int i : free)
       if (!AtBound(theta[i] * scale[i], bounds[i].lower, bounds[i].upper)) hc.free.push_back(i);
-    hc.prior_info = Eigen::MatrixXd::Zero(np, np);
-    for (const auto& pc : priors) hc.prior_info(pc->index(), pc->index()) += pc->information_theta();
+    hc.prior_info = priors.InformationAll(np);
     hc.noise_level = sigma2 * tau;
     hc.wheelbase_m = wheelbase_m_;
     r.halves = EstimateHalves(halves[0], halves[1], hc);
@@ -1261,15 +1009,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     } else if (config_.yaw_rate_output) {
       rep.notes.push_back("outputs: a_y alone (identification.outputs asks for the yaw rate, but no chunk has one)");
     }
-    for (const std::string& n : evidence_notes) rep.notes.push_back(n);
-    for (const auto& pc : priors) {
-      for (const config::ParameterPrior& pr : config_.priors) {
-        if (pr.name == spec_.param_name(pc->index())) {
-          rep.notes.push_back("prior on " + pr.name + ": " + std::to_string(pr.value) + " +- " + std::to_string(pr.sd) +
-                              " (model.priors); its standard error includes the prior");
-        }
-      }
-    }
+    for (const std::string& n : priors.Notes(config_, spec_)) rep.notes.push_back(n);
   }
 
   mark(3);
