@@ -16,9 +16,11 @@
 #include <sstream>
 
 #include "chunk_cost.h"
+#include "eg_check.h"
 #include "evidence_priors.h"
 #include "fit_problem.h"
 #include "half_estimates.h"
+#include "incremental_prior.h"
 #include "parallel.h"
 #include "quadratic_prior.h"
 #include "residual_sums.h"
@@ -40,29 +42,6 @@ std::string DescribeDirection(const Eigen::VectorXd& v, const std::vector<int>& 
   return os.str();
 }
 
-// The quadratics are straight valleys where the true cost's valley is curved: along directions
-// the data hardly determine, the estimate can slide far while the Mahalanobis distance stays
-// small, and EG (a nonlinear function of the parameters) moves with it. Two guards: a prior
-// chunk is simulated again when any scaled parameter moved more than kRelinearizeStep from its
-// linearisation point (25 % of a base parameter's initial value, 12.5 % of an effect's box);
-// and the EG check of every incremental solution (Identifier::IdentifyAtDriveValues) simulates
-// kEgCheckChunks prior chunks at the solution and asks the error of their predicted scores,
-// scaled to the whole prior, to move EG by at most kEgCheck of its standard deviation.
-constexpr double kRelinearizeStep = 0.25;
-constexpr size_t kEgCheckChunks = 32;
-constexpr double kEgCheck = 0.15;
-// The sample is simulated in two interleaved halves; the first decides alone when it holds at
-// least this many chunks and shows every error within its limit with kEgCheckClearZ of its
-// standard errors to spare (EgCheckEstimates::clear).
-constexpr size_t kEgCheckFirstHalfMin = 8;
-// An ordinary update whose solution lies within this many of the prior's standard deviations of
-// the estimate where the same quadratics last passed the check (LinearizedWindow::checked_at,
-// e.g. an update whose new data all went to held-out drives) is not checked again: the
-// quadratics' error there moves EG by about as much as it did at that check.
-constexpr double kRecheckSigma = 0.01;
-// ... and the errors of their predicted J'J and scores to change EG's variance by at most this
-// share (its standard deviation by about half of it).
-constexpr double kSigmaCheck = 0.1;
 // Rounds of in-place relinearisation after the first incremental solve; an update still unsettled
 // is fitted as the whole window.
 constexpr int kRelinearizeRounds = 4;
@@ -70,15 +49,6 @@ constexpr int kRelinearizeRounds = 4;
 // standard deviations: the rounds (undamped Gauss-Newton steps on the whole window) seldom settle
 // from so far, and the update is fitted as the whole window at once.
 constexpr double kEgCheckHopeless = 1.0;
-// An exact update (IncrementalUpdate::exact) relinearises every prior chunk the estimate lies
-// further than this many of its standard deviations from, once, at its first solution. After the
-// solve on those quadratics its EG check holds their error to kExactEgCheck of EG's standard
-// deviation (a twentieth of the 0.2 sigma every update keeps to the whole-window fit) and
-// kExactSigmaCheck of its variance; where it does not, every chunk is relinearised again and
-// the update solved again (also where only the variance is off: an exact update ends on a solve).
-constexpr double kExactSigma = 0.05;
-constexpr double kExactEgCheck = 0.01;
-constexpr double kExactSigmaCheck = 0.01;
 // An incremental update keeps its new chunks' last residuals and Jacobians for the statistics at
 // the optimum while they take at most this much memory (64 MiB hold about 150 one-minute chunks at
 // 50 Hz with both outputs and 8 parameters).
@@ -221,112 +191,17 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
 
   // Incremental update (docs/incremental.md): the training segments the prior holds enter the
   // fit as their chunks' quadratics; the others are simulated.
-  const LinearizedWindow* prior = update && update->prior && drive_overrides_.empty() &&
-                                          update->prior->Compatible(r.model, scale, config_.chunk_s, config_.burn_in_s)
-                                      ? update->prior.get()
-                                      : nullptr;
-  struct PriorSegment {
-    const stats::Segment* seg;
-    const LinearizedSegment* lin;
-  };
-  std::vector<PriorSegment> from_prior;
-  SegmentList simulated;
-  if (prior) {
-    std::map<std::pair<int64_t, int64_t>, const LinearizedSegment*> by_key;
-    for (const LinearizedSegment& ls : prior->segments) by_key[{ls.drive_id, ls.t0_ns}] = &ls;
-    for (const stats::Segment* seg : training) {
-      const auto it = seg ? by_key.find({seg->drive_id, seg->t0_ns}) : by_key.end();
-      if (it != by_key.end() && SameSegment(*it->second, *seg)) {
-        from_prior.push_back({seg, it->second});
-      } else {
-        simulated.push_back(seg);
-      }
-    }
-  } else {
-    simulated = training;
+  std::optional<IncrementalPrior> inc;
+  SegmentList simulated = training;
+  if (update && update->prior && drive_overrides_.empty() &&
+      update->prior->Compatible(r.model, scale, config_.chunk_s, config_.burn_in_s)) {
+    inc.emplace(settings, *update->prior, theta);  // theta: the anchor along the prior's weak directions
+    simulated = inc->Split(training);
   }
-  // Segments of the prior whose linearisation point lies more than relinearize_sigma of the
-  // prior's own standard deviation from `at` (Mahalanobis distance with the prior's J'J over its
-  // noise level sigma^2 tau): they are simulated again.
-  // The noise level sigma^2 tau of the prior's (weighted) residuals.
-  // The prior's autocorrelation sums (both outputs pooled) added into acf; returns its residuals.
-  auto add_prior_sums = [&](std::vector<double>& acf) {
-    double n = 0;
-    for (const PriorSegment& ps : from_prior) {
-      for (const LinearizedChunk& c : ps.lin->chunks) {
-        AddSums(c.acf_a_y, acf);
-        AddSums(c.acf_yaw_rate, acf);
-        n += c.n_a_y + c.n_yaw_rate;
-      }
-    }
-    return n;
-  };
-  auto prior_level = [&]() {
-    std::vector<double> acf(kAcfMaxLag + 1, 0.0);
-    const double n = add_prior_sums(acf);
-    return LevelOfSums(acf, n);
-  };
-  // The prior's information sum J'J (theta space).
-  auto prior_jtj = [&]() {
-    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(np, np);
-    for (const PriorSegment& ps : from_prior) {
-      for (const LinearizedChunk& c : ps.lin->chunks) {
-        h += Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(c.jtj.data(), np, np);
-      }
-    }
-    return h;
-  };
   const double sigma_rule = update && update->exact ? std::min(update->relinearize_sigma, kExactSigma)
                                                     : (update ? update->relinearize_sigma : 0.0);
-  // How far `at` lies from a segment's linearisation points: the largest squared Mahalanobis
-  // distance (prior J'J h over its noise level) and the largest single step over its chunks.
-  struct Distance {
-    double worst = 0, step = 0;
-    Eigen::VectorXd worst_d;  // the move from the worst chunk's linearisation point
-    bool beyond(double rule) const { return !(worst <= rule * rule) || !(step <= kRelinearizeStep); }
-  };
-  auto distance = [&](const LinearizedSegment& ls, const Eigen::Ref<const Eigen::VectorXd>& x, const Eigen::MatrixXd& h,
-                      double level) {
-    Distance out;
-    for (const LinearizedChunk& c : ls.chunks) {
-      const Eigen::VectorXd d = x - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
-      const double m = d.dot(h * d) / level;
-      if (out.worst_d.size() == 0 || m > out.worst) out.worst_d = d;
-      out.worst = std::max(out.worst, m);
-      out.step = std::max(out.step, d.lpNorm<Eigen::Infinity>());
-    }
-    return out;
-  };
-  // The prior's J'J and noise level, taken once for the guards that read them at one state of
-  // the prior (the distance rule, the re-check distance and the EG check of one round).
-  struct PriorMoments {
-    Eigen::MatrixXd h;
-    double level;
-  };
-  auto prior_moments = [&]() { return PriorMoments{prior_jtj(), prior_level()}; };
-  auto stale_segments = [&](const std::vector<double>& at, double rule, const PriorMoments& pm) {
-    std::vector<size_t> out;
-    if (from_prior.empty()) return out;
-    const Eigen::MatrixXd& h = pm.h;
-    const double level = pm.level;
-    if (!(level > 0)) return out;
-    const Eigen::Map<const Eigen::VectorXd> x(at.data(), np);
-    for (size_t i = 0; i < from_prior.size(); ++i) {
-      const Distance dist = distance(*from_prior[i].lin, x, h, level);
-      if (dist.beyond(rule)) {
-        // For the log: the parameter whose own move (in its marginal sigma) is the largest.
-        Eigen::Index most = 0;
-        (dist.worst_d.cwiseAbs().array() * h.diagonal().cwiseMax(0.0).array().sqrt()).maxCoeff(&most);
-        spdlog::debug("incremental: prior segment {} stale ({:.3g} sigma, step {:.3g}; largest single move {})", i,
-                      std::sqrt(dist.worst), dist.step, spec_.param_name(static_cast<int>(most)));
-        out.push_back(i);
-      }
-    }
-    return out;
-  };
-  const std::vector<double> theta0 = theta;  // the start: the anchor along the prior's weak directions
   fit.Cut(simulated);
-  if (chunks.empty() && from_prior.empty()) {
+  if (chunks.empty() && (!inc || inc->segments().empty())) {
     r.reason = "no gated segment long enough for the dynamic fit";
     return r;
   }
@@ -339,7 +214,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   size_t chunks_with_yaw = fit.ChunksWithYawRate();
   // A prior segment counts by its data, not by its quadratics: those of a prior built for a_y
   // alone hold no yaw-rate residuals even where the data have a yaw rate.
-  for (const PriorSegment& ps : from_prior) chunks_with_yaw += ps.seg->has_yaw_rate ? ps.lin->chunks.size() : 0;
+  if (inc) chunks_with_yaw += inc->ChunksWithYawRate();
   const bool two_outputs = config_.yaw_rate_output && chunks_with_yaw > 0;
   // The update fitted as the whole window instead (no prior); `note`, when given, says why.
   auto whole_window = [&](const char* note) {
@@ -349,17 +224,15 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     if (note) w.update = note;
     return w;
   };
-  if (prior && two_outputs != (prior->weight_yaw_rate > 0)) return whole_window(nullptr);
+  if (inc && two_outputs != (inc->window().weight_yaw_rate > 0)) return whole_window(nullptr);
   // While the new data outnumber the prior's chunks (the first updates of a window, with two
   // outputs), a whole-window fit costs at most about twice the update and estimates the output
   // weights from all the data at its own solution.
-  size_t prior_chunks = 0;
-  for (const PriorSegment& ps : from_prior) prior_chunks += ps.lin->chunks.size();
-  if (prior && two_outputs && chunks.size() >= prior_chunks)
+  if (inc && two_outputs && chunks.size() >= inc->NumChunks())
     return whole_window("incremental: more chunks to simulate than the prior holds, so fitted as the whole window");
   std::shared_ptr<OutputWeights>& weights = fit.weights;
   weights->yaw_rate = two_outputs ? 1.0 : 0.0;
-  if (prior) *weights = {prior->weight_a_y, prior->weight_yaw_rate};
+  if (inc) *weights = {inc->window().weight_a_y, inc->window().weight_yaw_rate};
   auto& costs = fit.costs;
   const std::vector<size_t>& n_a = fit.n_a;
   size_t& n_res = fit.n_res;
@@ -367,43 +240,12 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   fit.AddCosts();
   // An update on a prior keeps each new chunk's last evaluation with its Jacobian for the
   // statistics at the optimum (chunk_cost.h), up to kKeepLastBytes of them.
-  if (prior) fit.KeepLastWithin(kKeepLastBytes);
+  if (inc) fit.KeepLastWithin(kKeepLastBytes);
   // With both outputs, the weights of the whole window: the new data's noise level per output at
   // the start values pooled with the prior's (its chunks' autocorrelation sums, unweighted), as a
   // full fit sets them from all the data. A prior that keeps each chunk's yaw-rate part is
   // re-weighted to them exactly (docs/incremental.md); an older one holds its own.
-  std::shared_ptr<const LinearizedWindow> reweighted;
-  if (prior && two_outputs && !from_prior.empty() && prior->Reweightable()) {
-    *weights = {1.0, 1.0};
-    std::vector<std::vector<double>> a, rr;
-    fit.EvaluateSeries(a, rr);
-    *weights = {prior->weight_a_y, prior->weight_yaw_rate};
-    std::vector<double> acf_a(kAcfMaxLag + 1, 0.0), acf_r(kAcfMaxLag + 1, 0.0);
-    double na = AddSeriesSums(a, acf_a);
-    double nr = AddSeriesSums(rr, acf_r);
-    const double ua = 1.0 / (prior->weight_a_y * prior->weight_a_y);
-    const double ur = 1.0 / (prior->weight_yaw_rate * prior->weight_yaw_rate);
-    for (const PriorSegment& ps : from_prior) {
-      for (const LinearizedChunk& c : ps.lin->chunks) {
-        AddSums(c.acf_a_y, acf_a, ua);
-        AddSums(c.acf_yaw_rate, acf_r, ur);
-        na += c.n_a_y;
-        nr += c.n_yaw_rate;
-      }
-    }
-    const double la = LevelOfSums(acf_a, na), lr = LevelOfSums(acf_r, nr);
-    if (la > 0 && lr > 0 && std::isfinite(la) && std::isfinite(lr)) {
-      const double wa = 1.0 / std::sqrt(la), wr = 1.0 / std::sqrt(lr);
-      if (wr / wa != prior->weight_yaw_rate / prior->weight_a_y) {
-        spdlog::debug("incremental: the prior re-weighted from the weight ratio {:.4g} to the whole window's {:.4g}",
-                      prior->weight_yaw_rate / prior->weight_a_y, wr / wa);
-        reweighted = std::make_shared<const LinearizedWindow>(prior->Reweighted(wa, wr));
-        for (PriorSegment& ps : from_prior) ps.lin = &reweighted->segments[static_cast<size_t>(ps.lin - prior->segments.data())];
-        prior = reweighted.get();
-        *weights = {wa, wr};
-      }
-    }
-  }
+  if (inc) inc->ReweightToWindow(fit, two_outputs);
   // Stale prior segments (their linearisation points left behind by the estimate) are
   // relinearised in place: each chunk simulated once with its Jacobian at theta, its quadratic
   // replaced by the one there (a copy of the prior holds them). The fit then goes on with the
@@ -417,67 +259,31 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
                                std::shared_ptr<const OutputWeights> w = nullptr) {
     return settings.EvaluateAt(c, scale, w ? w : weights, theta, e, jac);
   };
-  std::shared_ptr<LinearizedWindow> relinearized;
-  auto relinearize = [&](const std::vector<size_t>& stale) -> bool {
-    if (stale.empty()) return true;
-    if (!relinearized) {
-      relinearized = std::make_shared<LinearizedWindow>(*prior);
-      for (PriorSegment& ps : from_prior) ps.lin = &relinearized->segments[static_cast<size_t>(ps.lin - prior->segments.data())];
-      prior = relinearized.get();
-    }
-    std::vector<std::vector<Chunk>> cuts;
-    std::vector<std::pair<const Chunk*, LinearizedChunk*>> jobs;
-    cuts.reserve(stale.size());
-    for (size_t i : stale) {
-      cuts.push_back(MakeChunks({from_prior[i].seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_));
-      auto& lin_chunks = relinearized->segments[static_cast<size_t>(from_prior[i].lin - relinearized->segments.data())].chunks;
-      if (cuts.back().size() != lin_chunks.size()) return false;
-      for (size_t k = 0; k < lin_chunks.size(); ++k) jobs.emplace_back(&cuts.back()[k], &lin_chunks[k]);
-    }
-    std::vector<char> ok(jobs.size(), 0);
-    ParallelFor(jobs.size(), config_.threads, [&](size_t j) {
-      const Chunk& c = *jobs[j].first;
-      std::vector<double> e, jac;
-      if (!evaluate_at_theta(c, e, jac)) return;
-      const long m = static_cast<long>(e.size());
-      const Eigen::Map<const RowMajorMatrix> J(jac.data(), m, np);
-      const Eigen::Map<const Eigen::VectorXd> ev(e.data(), m);
-      Linearize(*jobs[j].second, theta, e, J, J.transpose() * J, J.transpose() * ev, c.n - BurnInSamples(c, config_.burn_in_s),
-                *weights, two_outputs);
-      ok[j] = 1;
-    });
-    r.chunks_relinearized += jobs.size();
-    return std::all_of(ok.begin(), ok.end(), [](char x) { return x != 0; });
-  };
-  QuadraticPrior quadratic(np);
-  auto set_quadratic = [&]() {
-    std::vector<const LinearizedChunk*> lin;
-    for (const PriorSegment& ps : from_prior)
-      for (const LinearizedChunk& c : ps.lin->chunks) lin.push_back(&c);
-    quadratic.Set(lin, prior_level(), theta0);
+  auto relinearize = [&](const std::vector<size_t>& stale) {
+    return inc->Relinearize(stale, theta, scale, weights, two_outputs, r.chunks_relinearized);
   };
   const char* kNotRelinearized = "incremental: a prior chunk could not be relinearised (non-finite residuals), so fitted as the whole window";
-  if (prior) {
+  if (inc) {
     // At the start, the distance rule of an ordinary update even for an exact one: the start (the
     // last estimate) is not the solution, and the exact rule applies there (after the solve), so
     // relinearising every chunk here too would only be done again.
-    if (!relinearize(stale_segments(theta, update->relinearize_sigma, prior_moments()))) return whole_window(kNotRelinearized);
-    set_quadratic();
-    problem.AddResidualBlock(&quadratic, nullptr, theta.data());
+    if (!relinearize(inc->StaleSegments(theta, update->relinearize_sigma, inc->TakeMoments()))) return whole_window(kNotRelinearized);
+    inc->SetQuadratic();
+    problem.AddResidualBlock(&inc->quadratic(), nullptr, theta.data());
   }
   // The noise level of the (weighted) residuals at theta, pooled with the prior's chunks.
   auto noise_level = [&]() {
-    if (!prior) return fit.NoiseLevel();
+    if (!inc) return fit.NoiseLevel();
     std::vector<std::vector<double>> a, rr;
     fit.EvaluateSeries(a, rr);
     std::vector<double> acf(kAcfMaxLag + 1, 0.0);
     double n = AddSeriesSums(a, acf);  // in this order: the sums add up in it
     n += AddSeriesSums(rr, acf);
-    n += add_prior_sums(acf);
+    n += inc->PoolSums(acf);
     return LevelOfSums(acf, n);
   };
   auto set_weights = [&]() { return fit.EstimateWeights(two_outputs); };
-  if (!prior) set_weights();
+  if (!inc) set_weights();
   if (free.empty()) {
     r.reason = "every parameter is fixed";
     return r;
@@ -494,10 +300,10 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   };
   reweight_priors();
 
-  WindowSolver solver(config_, box, theta.data(), prior != nullptr);
+  WindowSolver solver(config_, box, theta.data(), inc.has_value());
   // Coarse start of a large fit without a prior: the solver first runs on every k-th chunk, about
   // coarse_chunks of them, then finishes on the whole window from there.
-  if (!prior && solver.WantsCoarseStart(costs.size())) {
+  if (!inc && solver.WantsCoarseStart(costs.size())) {
     const CoarseStart coarse = solver.SolveCoarse(fit, priors, [&]() {
       if (!set_weights()) return false;
       reweight_priors();
@@ -509,7 +315,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   mark(0);
   const ceres::Solver::Summary& summary = solver.summary();
   r.iterations = solver.Solve(problem);
-  if (two_outputs && !prior && summary.IsSolutionUsable() && set_weights()) {
+  if (two_outputs && !inc && summary.IsSolutionUsable() && set_weights()) {
     // The outputs' noise levels at the solution differ from those at the start: refit once.
     reweight_priors();
     r.iterations += solver.Solve(problem);
@@ -531,144 +337,20 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // prior, and the Newton step it implies moves EG by `shift`; beyond kEgCheck of EG's standard
   // deviation, every prior segment is relinearised (and the update solved again). The same sample
   // checks EG's variance (kSigmaCheck).
-  struct CheckResult {
-    bool eg = true;     // the quadratics' error moves EG by at most kEgCheck sigma
-    bool sigma = true;  // ... and its variance by at most kSigmaCheck
-    double shift = 0;   // that move [sigma]
-  };
-  auto eg_check = [&](const PriorMoments& pm) -> CheckResult {
-    std::vector<std::pair<size_t, size_t>> all;  // (prior segment, chunk)
-    for (size_t i = 0; i < from_prior.size(); ++i)
-      for (size_t k = 0; k < from_prior[i].lin->chunks.size(); ++k) all.emplace_back(i, k);
-    if (all.empty()) return {};
-    // The EG direction: v = H^-1 g over the free parameters (H the prior's J'J, g EG's
-    // gradient), so that v . (score error) is the Newton step's move of EG, and v'Hv = g'H^-1 g.
-    std::vector<int> fr;
-    for (int i = 0; i < np; ++i)
-      if (!bounds[i].fixed) fr.push_back(i);
-    const int nf = static_cast<int>(fr.size());
-    const Eigen::MatrixXd& h = pm.h;
-    std::vector<bool> fixed_params(static_cast<size_t>(np));
-    for (int i = 0; i < np; ++i) fixed_params[static_cast<size_t>(i)] = bounds[i].fixed;
-    const Eigen::VectorXd eg_g = EgGradientTheta(theta, scale, wheelbase_m_, fixed_params);
-    Eigen::MatrixXd hf(nf, nf);
-    Eigen::VectorXd gf(nf);
-    for (int a = 0; a < nf; ++a) {
-      gf[a] = eg_g[fr[a]];
-      for (int b = 0; b < nf; ++b) hf(a, b) = h(fr[a], fr[b]);
-    }
-    const Eigen::VectorXd vf = hf.completeOrthogonalDecomposition().pseudoInverse() * gf;
-    Eigen::VectorXd v = Eigen::VectorXd::Zero(np);
-    for (int a = 0; a < nf; ++a) v[fr[a]] = vf[a];
-    const double v_max = v.lpNorm<Eigen::Infinity>();
-    const double g_hinv_g = gf.dot(vf);
-    const double sd = std::sqrt(std::max(0.0, pm.level * g_hinv_g));
-    if (!(v_max > 0) || !(sd > 0)) return {false, false};
-    // Each sampled chunk simulated at theta and at theta + eps v / |v|: its residuals e and the
-    // directional derivative J v (forward difference), against its quadratic's predictions:
-    //   v . score  (the EG check)   and  v' J'J v  (the bread of EG's variance).
-    const size_t step = std::max<size_t>(1, all.size() / kEgCheckChunks);
-    std::vector<size_t> picks;
-    for (size_t a = step / 2; a < all.size(); a += step) picks.push_back(a);
-    std::map<const stats::Segment*, std::vector<Chunk>> cut_segments;
-    for (size_t a : picks) {
-      const stats::Segment* seg = from_prior[all[a].first].seg;
-      if (!cut_segments.count(seg)) cut_segments.emplace(seg, MakeChunks({seg}, config_.chunk_s, config_.burn_in_s, drive_overrides_));
-    }
-    constexpr double kEps = 1e-6;  // theta is O(1): a relative step
-    std::vector<double> moved(theta);
-    for (int i = 0; i < np; ++i) moved[static_cast<size_t>(i)] += kEps * v[i] / v_max;
-    struct Sample {
-      bool used = false, ok = true;
-      double vs = 0, vs_pred = 0, vhv = 0, vhv_pred = 0;
-    };
-    std::vector<Sample> samples(picks.size());
-    // The sample in two interleaved halves (picks 0, 2, 4, ... then 1, 3, 5, ...): the second is
-    // simulated only when the first does not already show the quadratics' errors within the limits
-    // with room for its own sampling error (EgCheckEstimates::clear); otherwise every pick decides.
-    auto simulate_half = [&](size_t half) {
-      ParallelFor((picks.size() + 1 - half) / 2, config_.threads, [&](size_t h) {
-        const size_t j = 2 * h + half;
-        const auto [i, k] = all[picks[j]];
-        const std::vector<Chunk>& cuts = cut_segments.at(from_prior[i].seg);
-        if (k >= cuts.size()) return;
-        Sample& out = samples[j];
-        out.used = true;
-        const Chunk& c = cuts[k];
-        const auto cost = MakeChunkCost(c, BurnInSamples(c, config_.burn_in_s), wheelbase_m_, spec_, scale, weights);
-        const size_t m = static_cast<size_t>(cost->num_residuals());
-        std::vector<double> e0(m), e1(m);
-        const double* p0[] = {theta.data()};
-        const double* p1[] = {moved.data()};
-        const auto finite = [](double x) { return std::isfinite(x); };
-        if (!cost->Evaluate(p0, e0.data(), nullptr) || !cost->Evaluate(p1, e1.data(), nullptr) ||
-            !std::all_of(e0.begin(), e0.end(), finite) || !std::all_of(e1.begin(), e1.end(), finite)) {
-          out.ok = false;
-          return;
-        }
-        const Eigen::Map<const Eigen::VectorXd> a0(e0.data(), static_cast<long>(m)), a1(e1.data(), static_cast<long>(m));
-        const Eigen::VectorXd jv = (a1 - a0) * (v_max / kEps);
-        const LinearizedChunk& lc = from_prior[i].lin->chunks[k];
-        const Eigen::Map<const RowMajorMatrix> hc(lc.jtj.data(), np, np);
-        const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(lc.theta.data(), np);
-        out.vs = jv.dot(a0);
-        out.vs_pred = v.dot(Eigen::Map<const Eigen::VectorXd>(lc.score.data(), np) + hc * d);
-        out.vhv = jv.squaredNorm();
-        out.vhv_pred = v.dot(hc * v);
-      });
-    };
-    const double eg_limit = update->exact ? kExactEgCheck : kEgCheck;
-    const double sigma_limit = update->exact ? kExactSigmaCheck : kSigmaCheck;
-    // The estimates from the first half's samples or from all of them; none where a sampled chunk
-    // could not be simulated.
-    auto estimate = [&](bool first_half) -> std::optional<EgCheckEstimates> {
-      std::vector<EgCheckSample> used;
-      for (size_t j = 0; j < samples.size(); j += first_half ? 2 : 1) {
-        const Sample& x = samples[j];
-        if (!x.ok) return std::nullopt;
-        if (x.used) used.push_back({x.vs, x.vs_pred, x.vhv, x.vhv_pred});
-      }
-      return EstimateEgCheck(used, all.size(), sd, g_hinv_g);
-    };
-    simulate_half(0);
-    std::optional<EgCheckEstimates> est = estimate(true);
-    if (!est) return {false, false};
-    const bool early = picks.size() >= 2 * kEgCheckFirstHalfMin && est->clear(eg_limit, sigma_limit);
-    if (!early) {
-      simulate_half(1);
-      est = estimate(false);
-      if (!est) return {false, false};
-      if (est->sampled == 0) return {};
-    }
-    spdlog::debug("incremental: EG check over {} of {} prior chunks{}: the quadratics' error moves EG by {:.3g} sigma (+- {:.2g}), its "
-                  "variance by {:.3g} (bread) and {:.3g} (cluster meat)", est->sampled, all.size(), early ? " (the first half sufficed)" : "",
-                  est->shift, est->shift_se, est->bread, est->meat);
-    return {est->shift <= eg_limit, est->bread <= sigma_limit && est->meat <= sigma_limit, est->shift};
-  };
-  // kRecheckSigma: the same quadratics (every segment of the prior in the fit) already passed the
-  // check next to this solution.
-  auto checked_before = [&](const PriorMoments& pm) {
-    if (update->exact || prior->checked_at.size() != static_cast<size_t>(np) || from_prior.size() != prior->segments.size())
-      return false;
-    if (!(pm.level > 0)) return false;
-    const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) -
-                              Eigen::Map<const Eigen::VectorXd>(prior->checked_at.data(), np);
-    const double m = d.dot(pm.h * d) / pm.level;
-    if (!(m <= kRecheckSigma * kRecheckSigma)) return false;
-    spdlog::debug("incremental: EG check skipped: the solution lies {:.2g} sigma from where the same quadratics passed it", std::sqrt(m));
-    return true;
-  };
-  bool settled = !prior;
+  bool settled = !inc;
   mark(1);
-  for (int round = 0; prior && summary.IsSolutionUsable(); ++round) {
+  for (int round = 0; inc && summary.IsSolutionUsable(); ++round) {
     // An exact update's rule applies at its first solution; after that the ordinary rule and the
     // exact update's tighter EG check.
-    const PriorMoments pm = prior_moments();
-    std::vector<size_t> stale = stale_segments(theta, round == 0 ? sigma_rule : update->relinearize_sigma, pm);
+    const IncrementalPrior::Moments pm = inc->TakeMoments();
+    std::vector<size_t> stale = inc->StaleSegments(theta, round == 0 ? sigma_rule : update->relinearize_sigma, pm);
     const bool checked = stale.empty();
-    const CheckResult check = checked && !checked_before(pm) ? eg_check(pm) : CheckResult{};
+    // kRecheckSigma: the same quadratics (every segment of the prior in the fit) already passed the
+    // check next to this solution.
+    const bool recheck = checked && (update->exact || !inc->CheckedNear(theta, pm));
+    const EgCheckResult check = recheck ? CheckEg(settings, box, *inc, pm, theta, weights, update->exact) : EgCheckResult{};
     if (!check.eg || !check.sigma) {
-      for (size_t i = 0; i < from_prior.size(); ++i) stale.push_back(i);
+      for (size_t i = 0; i < inc->segments().size(); ++i) stale.push_back(i);
     }
     if (stale.empty()) {
       settled = true;
@@ -676,6 +358,9 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
     if (checked && round == 0 && !(check.shift <= kEgCheckHopeless))
       return whole_window("incremental: the EG check found the prior's quadratics far off, so fitted as the whole window");
+    // An exact update whose EG check does not hold the quadratics' error to its tighter limits
+    // relinearises every chunk again and solves again (also where only the variance is off: an
+    // exact update ends on a solve).
     if (checked && check.eg && !update->exact) {
       // Only EG's variance is off: every prior chunk is relinearised at the solution for the
       // statistics below, without another solve (the step the fresh quadratics imply moves EG
@@ -686,7 +371,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     }
     if (round == kRelinearizeRounds) break;
     if (!relinearize(stale)) return whole_window(kNotRelinearized);
-    set_quadratic();
+    inc->SetQuadratic();
     mark(2);
     r.iterations += solver.Solve(problem);
     mark(1);
@@ -773,10 +458,10 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // The prior's chunks: their quadratics at the estimate (J'J, score, sum of squares), their
   // per-output sums of squares and autocorrelation sums as when they were last simulated.
   std::vector<double> acf_a, acf_r;  // pooled autocorrelation sums (incremental only)
-  if (prior) {
+  if (inc) {
     for (const auto& e : series_a) AddAutocorrelationSums(e, acf_a);
     for (const auto& e : series_r) AddAutocorrelationSums(e, acf_r);
-    for (const PriorSegment& ps : from_prior) {
+    for (const IncrementalPrior::Segment& ps : inc->segments()) {
       for (const LinearizedChunk& c : ps.lin->chunks) {
         const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> hc(c.jtj.data(), np, np);
         const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
@@ -802,7 +487,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   r.chunks = r.chunks_simulated + r.chunks_from_prior;
   r.rmse_train_mps2 = std::sqrt(rss_a / static_cast<double>(n_res_a));
   r.yaw_rate_output = two_outputs;
-  if (prior) {
+  if (inc) {
     r.noise_level_a_y = LevelOfSums(acf_a, static_cast<double>(n_res_a)) / (weights->a_y * weights->a_y);
     if (two_outputs) {
       r.rmse_train_yaw_radps = std::sqrt(rss_r / static_cast<double>(n_res - n_res_a));
@@ -817,10 +502,10 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   }
   if (two_outputs && r.noise_level_a_y > 0 && r.noise_level_yaw_rate > 0) {
     spdlog::debug("two outputs: fitted with the weight ratio yaw rate / a_y {:.4g}{}; the noise levels at the solution give {:.4g}",
-                  weights->yaw_rate / weights->a_y, prior ? " (the prior's)" : "",
+                  weights->yaw_rate / weights->a_y, inc ? " (the prior's)" : "",
                   std::sqrt(r.noise_level_a_y / r.noise_level_yaw_rate));
   }
-  if (prior) {
+  if (inc) {
     r.floor_a_y_mps2 = SumsFloor(acf_a, static_cast<double>(n_res_a), weights->a_y);
     if (two_outputs) r.floor_yaw_radps = SumsFloor(acf_r, static_cast<double>(n_res - n_res_a), weights->yaw_rate);
   } else {
@@ -855,7 +540,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   // the classical one inflated by the residuals' integrated autocorrelation time, and (with
   // enough chunks) the cluster-robust sandwich over chunks.
   double tau = 0;
-  if (prior) {
+  if (inc) {
     std::vector<double> acf = acf_a;
     AddSums(acf_r, acf);
     tau = AutocorrelationTimeFromSums(acf);
@@ -1024,16 +709,16 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
   bool held_done = false;
   if (!validation.empty() && keep) {
     std::map<std::pair<int64_t, int64_t>, const LinearizedSegment*> held_prior;
-    if (prior)
-      for (const LinearizedSegment& ls : prior->held_out) held_prior[{ls.drive_id, ls.t0_ns}] = &ls;
+    if (inc)
+      for (const LinearizedSegment& ls : inc->window().held_out) held_prior[{ls.drive_id, ls.t0_ns}] = &ls;
     Eigen::MatrixXd h;
     double level = 0;
     if (!held_prior.empty()) {
-      h = prior_jtj();
-      level = prior_level();
+      h = inc->Jtj();
+      level = inc->Level();
     }
     const Eigen::Map<const Eigen::VectorXd> x(theta.data(), np);
-    auto near = [&](const LinearizedSegment& ls) { return level > 0 && !distance(ls, x, h, level).beyond(sigma_rule); };
+    auto near = [&](const LinearizedSegment& ls) { return level > 0 && !IncrementalPrior::DistanceOf(ls, x, h, level).beyond(sigma_rule); };
     held_lin.resize(validation.size());
     std::vector<std::vector<Chunk>> cuts(validation.size());
     std::vector<std::pair<size_t, size_t>> jobs;  // (held-out segment, chunk) simulated with the Jacobian
@@ -1117,7 +802,7 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
                 phase[2], phase[3], phase[4], r.chunks_simulated, r.chunks_relinearized);
   r.valid = std::isfinite(r.eg_rad_per_mps2) && std::isfinite(r.eg_se_rad_per_mps2);
   if (!r.valid) r.reason = "non-finite EG or standard error";
-  if (prior) {
+  if (inc) {
     char how[200];
     std::snprintf(how, sizeof how, "incremental%s: %zu chunks simulated, %zu from the prior (%zu relinearisations)",
                   update->exact ? " (exact)" : "", r.chunks_simulated, r.chunks_from_prior, r.chunks_relinearized);
@@ -1132,10 +817,11 @@ IdentificationResult Identifier::IdentifyAtDriveValues(const SegmentList& traini
     lw->weight_yaw_rate = weights->yaw_rate;
     lw->chunk_s = config_.chunk_s;
     lw->burn_in_s = config_.burn_in_s;
-    lw->updates_since_full = prior && r.chunks_from_prior > 0 && !update->exact ? prior->updates_since_full + 1 : 0;
+    lw->updates_since_full = inc && r.chunks_from_prior > 0 && !update->exact ? inc->window().updates_since_full + 1 : 0;
     lw->checked_at = theta;  // settled: checked there, exact there, or every chunk fresh
     std::map<const stats::Segment*, const LinearizedSegment*> kept;
-    for (const PriorSegment& ps : from_prior) kept[ps.seg] = ps.lin;
+    if (inc)
+      for (const IncrementalPrior::Segment& ps : inc->segments()) kept[ps.seg] = ps.lin;
     std::map<const stats::Segment*, std::vector<size_t>> fresh;
     for (size_t ci = 0; ci < chunks.size(); ++ci) fresh[chunk_segment[ci]].push_back(ci);
     for (const stats::Segment* seg : training) {
