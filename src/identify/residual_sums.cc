@@ -7,14 +7,11 @@
 
 namespace ndsid::identify {
 
-// Adds factor * x into the pooled autocorrelation sums (lags 0..kAcfMaxLag).
 void AddSums(const std::vector<double>& x, std::vector<double>& pooled, double factor) {
   pooled.resize(kAcfMaxLag + 1, 0.0);
   for (size_t k = 0; k < x.size() && k < pooled.size(); ++k) pooled[k] += factor * x[k];
 }
 
-// A chunk's quadratic at theta (the next update's prior) from its weighted residuals e (the
-// n_a a_y ones first, then the yaw rate's), their Jacobian J and its J'J and score J'e.
 void Linearize(LinearizedChunk& lc, const std::vector<double>& theta, const std::vector<double>& e,
                const Eigen::Ref<const RowMajorMatrix>& J, const Eigen::MatrixXd& jtj, const Eigen::VectorXd& score, size_t n_a,
                const OutputWeights& weights, bool two_outputs, bool with_acf) {
@@ -46,9 +43,6 @@ void Linearize(LinearizedChunk& lc, const std::vector<double>& theta, const std:
   }
 }
 
-// Squared errors of the simulated outputs against the measured ones, summed after each chunk's
-// burn-in: a_y over every chunk and, with yaw_rate, the yaw rate over the chunks that have one.
-// Each chunk is simulated once, on `threads` threads; the sums add up in chunk order.
 ErrorSums SimulatedErrorSums(const model::ModelSpec& spec, double wheelbase_m, const std::vector<Chunk>& chunks,
                              const std::vector<double>& params, double burn_in_s, bool yaw_rate, int threads) {
   std::vector<ErrorSums> per_chunk(chunks.size());
@@ -79,10 +73,8 @@ ErrorSums SimulatedErrorSums(const model::ModelSpec& spec, double wheelbase_m, c
   return total;
 }
 
-// The root mean square of n values from their sum of squares; -1 without values.
 double RootMean(double sum, size_t n) { return n ? std::sqrt(sum / static_cast<double>(n)) : -1.0; }
 
-// Adds every series' autocorrelation sums into acf; returns the number of residuals.
 double AddSeriesSums(const std::vector<std::vector<double>>& series, std::vector<double>& acf) {
   double n = 0;
   for (const auto& e : series) {
@@ -92,13 +84,10 @@ double AddSeriesSums(const std::vector<std::vector<double>>& series, std::vector
   return n;
 }
 
-// sigma^2 tau of pooled autocorrelation sums over n residuals (acf[0] is their sum of squares).
 double LevelOfSums(const std::vector<double>& acf, double n) {
   return n > 0 && !acf.empty() ? acf[0] / n * AutocorrelationTimeFromSums(acf) : 0.0;
 }
 
-// The white part of residual series divided by `weight` (unweighted): sqrt(sum (e_k - e_k-1)^2 /
-// 2n) within each series; -1 without pairs.
 double SeriesFloor(const std::vector<std::vector<double>>& series, double weight) {
   double d2 = 0;
   size_t n = 0;
@@ -108,7 +97,6 @@ double SeriesFloor(const std::vector<std::vector<double>>& series, double weight
   }
   return n && weight > 0 ? std::sqrt(d2 / (2.0 * static_cast<double>(n))) / weight : -1.0;
 }
-// The same from pooled lag sums (acf[0] = sum e^2, acf[1] = sum e_k e_k-1) over n residuals.
 double SumsFloor(const std::vector<double>& acf, double n, double weight) {
   if (acf.size() < 2 || !(n > 0) || !(weight > 0)) return -1.0;
   return std::sqrt(std::max(0.0, acf[0] - acf[1]) / n) / weight;

@@ -36,6 +36,13 @@ constexpr const char* kUnsettled =
     "incremental: the estimate still left the prior's linearisation points after the relinearisation rounds, "
     "so fitted as the whole window";
 
+// The distance rule at an update's first solution [prior sigma]: relinearize_sigma, an exact
+// update's at most kExactSigma.
+double SigmaRule(const IncrementalUpdate* update) {
+  if (!update) return 0.0;
+  return update->exact ? std::min(update->relinearize_sigma, kExactSigma) : update->relinearize_sigma;
+}
+
 }  // namespace
 
 WindowFit::WindowFit(const Identifier& identifier, const SegmentList& training, const SegmentList& validation,
@@ -48,6 +55,7 @@ WindowFit::WindowFit(const Identifier& identifier, const SegmentList& training, 
       settings_{identifier.config(), identifier.spec(), identifier.wheelbase_m(), identifier.drive_overrides()},
       box_(ParameterBox::Make(identifier.config(), identifier.spec())),
       keep_(update && update->keep),
+      sigma_rule_(SigmaRule(update)),
       start_(std::chrono::steady_clock::now()),
       theta_(box_.Start(warm_start)),
       fit_(settings_, box_.scale, theta_.data()),
@@ -77,8 +85,6 @@ bool WindowFit::CutWindow() {
     prior_.emplace(settings_, *update_->prior, theta_);  // theta: the anchor along the prior's weak directions
     simulated = prior_->Split(training_);
   }
-  sigma_rule_ = update_ && update_->exact ? std::min(update_->relinearize_sigma, kExactSigma)
-                                          : (update_ ? update_->relinearize_sigma : 0.0);
   fit_.Cut(simulated);
   if (fit_.chunks.empty() && (!prior_ || prior_->segments().empty())) {
     result_.reason = "no gated segment long enough for the dynamic fit";

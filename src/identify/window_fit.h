@@ -111,22 +111,22 @@ class WindowFit {
   const FitSettings settings_;                             // what every part reads
   const ParameterBox box_;                                 // bounds, scaling, fixed and free parameters
   const bool keep_;                                        // return the linearisation (IncrementalUpdate::keep)
+  const double sigma_rule_;                                // the distance rule at the first solution [prior sigma]
   const std::chrono::steady_clock::time_point start_;      // when the fit began (solve_seconds)
 
   // The algorithm's state, in the order the steps set it.
-  IdentificationResult result_;       // filled step by step, returned by Run
-  std::vector<double> theta_;         // the scaled parameters p_i / scale_i: the problem's only parameter block
-  FitProblem fit_;                    // the simulated chunks, their costs, the output weights, the Ceres problem
-  std::optional<IncrementalPrior> prior_;  // the update's prior, where it fits this model
-  double sigma_rule_ = 0;             // the distance rule at the first solution [prior sigma] (exact: tighter)
-  size_t chunks_with_yaw_ = 0;        // training chunks whose data have a yaw rate (the prior's included)
-  bool two_outputs_ = false;          // the yaw rate is an output (configured, and the data have one)
-  EvidencePriors priors_;             // configured, standstill and speed-scale priors
-  std::optional<WindowSolver> solver_;  // every solve (the active set carried on a prior)
-  OptimumSums sums_;                  // the sums over every training chunk at the optimum
-  std::vector<LinearizedSegment> held_lin_;  // the held-out chunks' quadratics (next prior's held_out)
+  IdentificationResult result_;               // filled step by step, returned by Run
+  std::vector<double> theta_;                 // the scaled parameters p_i / scale_i: the problem's only parameter block
+  FitProblem fit_;                            // the simulated chunks, their costs, the output weights, the Ceres problem
+  std::optional<IncrementalPrior> prior_;     // the update's prior, where it fits this model
+  size_t chunks_with_yaw_ = 0;                // training chunks whose data have a yaw rate (the prior's included)
+  bool two_outputs_ = false;                  // the yaw rate is an output (configured, and the data have one)
+  EvidencePriors priors_;                     // configured, standstill and speed-scale priors
+  std::optional<WindowSolver> solver_;        // every solve (the active set carried on a prior)
+  OptimumSums sums_;                          // the sums over every training chunk at the optimum
+  std::vector<LinearizedSegment> held_lin_;   // the held-out chunks' quadratics (the next prior's held_out)
   std::chrono::steady_clock::time_point lap_;  // the last lap (Lap)
-  double phase_s_[5] = {0, 0, 0, 0, 0};  // setup, solve, checks, optimum, held-out [s] (debug log)
+  double phase_s_[5] = {0, 0, 0, 0, 0};       // setup, solve, checks, optimum, held-out [s] (the debug log)
 };
 
 }  // namespace ndsid::identify
