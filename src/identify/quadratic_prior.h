@@ -1,5 +1,5 @@
 // The incremental update's prior as a Ceres cost (private to the identify stage): the sum of
-// the prior's chunk quadratics (linearized_window.h), and the helpers the update's guards use.
+// the prior's chunk quadratics (linearized_window.h), and EG's gradient the update's guards use.
 #pragma once
 
 #include <ceres/ceres.h>
@@ -8,7 +8,6 @@
 #include <vector>
 
 #include "ndsid/identify/linearized_window.h"
-#include "ndsid/stats/segment.h"
 
 namespace ndsid::identify {
 
@@ -46,35 +45,5 @@ class QuadraticPrior final : public ceres::CostFunction {
 // entries, 0 for fixed ones (fixed[i]) and for effects.
 Eigen::VectorXd EgGradientTheta(const std::vector<double>& theta, const std::vector<double>& scale, double wheelbase_m,
                                 const std::vector<bool>& fixed);
-
-// The EG check of an incremental solution (identifier.cc, docs/incremental.md): one sampled
-// prior chunk, simulated at the solution. Along v = H^-1 g (H the prior's J'J, g EG's gradient):
-// its true score v.(J'e) and |Jv|^2, against its quadratic's predictions v.(s_c + H_c d) and
-// v'H_c v.
-struct EgCheckSample {
-  double vs = 0, vs_pred = 0, vhv = 0, vhv_pred = 0;
-};
-
-// The check's estimates from a sample of the prior's `total` chunks, scaled to all of them:
-//   shift  |total/n sum(vs - vs_pred)| / sd       EG's move, in its standard deviations sd;
-//   bread  |total/n sum(vhv - vhv_pred)| / g'H^-1g  the relative error of EG's variance's bread;
-//   meat   |sum(vs^2 - vs_pred^2)| / sum(vs_pred^2) that of its cluster-robust meat (a ratio).
-// Each with its standard error from the spread of the sampled chunks' terms, as for a simple
-// random sample of the chunks (the sums scaled: total s / sqrt(n); the ratio's by the jackknife,
-// infinite where leaving one chunk out leaves no predicted meat); 0 below two samples.
-struct EgCheckEstimates {
-  size_t sampled = 0;
-  double shift = 0, shift_se = 0;
-  double bread = 0, bread_se = 0;
-  double meat = 0, meat_se = 0;
-  // Every estimate within its limit with kEgCheckClearZ of its standard errors to spare (false
-  // below two samples): a smaller sample already decides the check.
-  bool clear(double eg_limit, double sigma_limit) const;
-};
-inline constexpr double kEgCheckClearZ = 2.0;
-EgCheckEstimates EstimateEgCheck(const std::vector<EgCheckSample>& samples, size_t total, double sd, double g_hinv_g);
-
-// The prior's segment and the window's are the same data (drive, start and length).
-bool SameSegment(const LinearizedSegment& l, const stats::Segment& s);
 
 }  // namespace ndsid::identify

@@ -1,5 +1,5 @@
 // The EG check's estimates from a sample of the prior's chunks (EstimateEgCheck,
-// src/identify/quadratic_prior.h): scaled to the whole prior, with standard errors that describe
+// src/identify/eg_check.h): scaled to the whole prior, with standard errors that describe
 // the estimates' real spread over samples, so that a first half-sample may decide the check
 // only when its own sampling error leaves room (EgCheckEstimates::clear).
 #include <gtest/gtest.h>
@@ -10,7 +10,7 @@
 #include <random>
 #include <vector>
 
-#include "quadratic_prior.h"
+#include "eg_check.h"
 
 namespace ndsid::identify {
 namespace {

@@ -1,0 +1,171 @@
+#include "optimum_sums.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "parallel.h"
+#include "residual_sums.h"
+
+namespace ndsid::identify {
+namespace {
+
+// The two halves of the window (alternate training drives, in drive order) for the checks of the
+// fit (half_estimates.h): each drive's half.
+std::map<int64_t, int> HalfOfDrive(const SegmentList& training) {
+  std::map<int64_t, int> half_of_drive;
+  std::set<int64_t> ids;
+  for (const stats::Segment* seg : training)
+    if (seg) ids.insert(seg->drive_id);
+  int k = 0;
+  for (int64_t id : ids) half_of_drive[id] = k++ % 2;
+  return half_of_drive;
+}
+
+// One simulated chunk at the optimum.
+struct AtOptimum {
+  std::vector<double> e;  // its weighted residuals
+  Eigen::MatrixXd jtj;    // J'J
+  Eigen::VectorXd score;  // J'e
+};
+
+// Each simulated chunk's residuals, J'J and score, computed on the configured threads, then added
+// up in chunk order (the same sums for any number of threads).
+void SumSimulated(const FitProblem& fit, const std::vector<double>& theta, bool keep, bool two_outputs,
+                  std::map<int64_t, int>& half_of_drive, OptimumSums& s) {
+  const auto& costs = fit.costs;
+  const int np = static_cast<int>(theta.size());
+  const OutputWeights& weights = *fit.weights;
+  s.simulated_lin.resize(keep ? costs.size() : 0);
+  std::vector<AtOptimum> at(costs.size());
+  const double* params[] = {theta.data()};
+  ParallelFor(costs.size(), fit.settings.config.threads, [&](size_t ci) {
+    const ChunkCost& cost = costs[ci]->full();
+    const int m = cost.num_residuals();
+    std::vector<double>& e = at[ci].e;
+    std::vector<double> jac;
+    if (!costs[ci]->TakeLast(theta.data(), e, jac)) {  // the solver's last evaluation is not this point's
+      e.resize(static_cast<size_t>(m));
+      jac.resize(static_cast<size_t>(m) * np);
+      double* jacs[] = {jac.data()};
+      cost.Evaluate(params, e.data(), jacs);
+    }
+    Eigen::Map<const RowMajorMatrix> J(jac.data(), m, np);
+    at[ci].jtj = J.transpose() * J;  // the model output's Jacobian is -J: signs cancel here and below
+    at[ci].score = J.transpose() * Eigen::Map<const Eigen::VectorXd>(e.data(), m);
+    if (keep)  // this chunk's quadratic at the estimate: the next update's prior
+      Linearize(s.simulated_lin[ci], theta, e, J, at[ci].jtj, at[ci].score, fit.n_a[ci], weights, two_outputs);
+  });
+  for (size_t ci = 0; ci < costs.size(); ++ci) {
+    std::vector<double>& e = at[ci].e;
+    Eigen::Map<const Eigen::VectorXd> ev(e.data(), static_cast<long>(e.size()));
+    s.jtj += at[ci].jtj;
+    s.halves[half_of_drive[fit.chunk_segment[ci]->drive_id]].AddChunk(at[ci].jtj, at[ci].score);
+    s.chunk_scores.push_back(std::move(at[ci].score));
+    s.rss += ev.squaredNorm();
+    const auto split = e.begin() + static_cast<long>(fit.n_a[ci]);
+    for (auto it = e.begin(); it != split; ++it) s.rss_a += (*it / weights.a_y) * (*it / weights.a_y);
+    for (auto it = split; it != e.end(); ++it) s.rss_r += (*it / weights.yaw_rate) * (*it / weights.yaw_rate);
+    // One series per output for the autocorrelation time (the two are not one time series).
+    s.chunk_residuals.emplace_back(e.begin(), split);
+    s.series_a.emplace_back(e.begin(), split);
+    if (split != e.end()) {
+      s.chunk_residuals.emplace_back(split, e.end());
+      s.series_r.emplace_back(split, e.end());
+    }
+    std::vector<double>().swap(e);
+  }
+}
+
+// The prior's chunks: their quadratics at the estimate (J'J, score, sum of squares), their
+// per-output sums of squares and autocorrelation sums as when they were last simulated.
+void SumPrior(const IncrementalPrior& prior, const std::vector<double>& theta, double burn_in_s,
+              std::map<int64_t, int>& half_of_drive, OptimumSums& s, IdentificationResult& r) {
+  const int np = static_cast<int>(theta.size());
+  for (const auto& e : s.series_a) AddAutocorrelationSums(e, s.acf_a);
+  for (const auto& e : s.series_r) AddAutocorrelationSums(e, s.acf_r);
+  for (const IncrementalPrior::Segment& ps : prior.segments()) {
+    for (const LinearizedChunk& c : ps.lin->chunks) {
+      const Eigen::Map<const RowMajorMatrix> hc(c.jtj.data(), np, np);
+      const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
+      const Eigen::VectorXd score = Eigen::Map<const Eigen::VectorXd>(c.score.data(), np) + hc * d;
+      s.jtj += hc;
+      s.halves[half_of_drive[ps.seg->drive_id]].AddChunk(hc, score);
+      s.chunk_scores.push_back(score);
+      s.rss += std::max(0.0, c.rss + 2 * Eigen::Map<const Eigen::VectorXd>(c.score.data(), np).dot(d) + d.dot(hc * d));
+      s.rss_a += c.rss_a_y;
+      s.rss_r += c.rss_yaw_rate;
+      s.n_res += c.n_a_y + c.n_yaw_rate;
+      s.n_res_a += c.n_a_y;
+      if (!c.acf_a_y.empty()) AddSums(c.acf_a_y, s.acf_a);
+      if (!c.acf_yaw_rate.empty()) AddSums(c.acf_yaw_rate, s.acf_r);
+      r.train_hours += (c.n_a_y + BurnInSamples(Chunk{nullptr, 0, ps.seg->dt_s, 0, nullptr, {}}, burn_in_s)) *
+                       ps.seg->dt_s / 3600.0;
+      ++r.chunks_from_prior;
+    }
+  }
+}
+
+}  // namespace
+
+OptimumSums SumAtOptimum(const FitProblem& fit, const IncrementalPrior* prior, const std::vector<double>& theta,
+                         const SegmentList& training, bool keep, bool two_outputs, IdentificationResult& r) {
+  const int np = static_cast<int>(theta.size());
+  OptimumSums s;
+  s.jtj = Eigen::MatrixXd::Zero(np, np);
+  s.n_res = fit.n_res;
+  s.n_res_a = fit.n_res_a;
+  std::map<int64_t, int> half_of_drive = HalfOfDrive(training);
+  for (HalfMoments& h : s.halves) h.Init(np);
+  for (const auto& [id, h] : half_of_drive) ++s.halves[h].drives;
+  SumSimulated(fit, theta, keep, two_outputs, half_of_drive, s);
+  r.chunks_simulated = fit.chunks.size();
+  for (const Chunk& c : fit.chunks) r.train_hours += c.n * c.dt_s / 3600.0;
+  if (prior) SumPrior(*prior, theta, fit.settings.config.burn_in_s, half_of_drive, s, r);
+  return s;
+}
+
+bool SetTrainingFit(const OptimumSums& s, const OutputWeights& weights, bool incremental, bool two_outputs, int threads,
+                    IdentificationResult& r) {
+  const size_t n_res = s.n_res, n_res_a = s.n_res_a;
+  r.residuals_train = n_res_a;
+  r.residuals_train_yaw = n_res - n_res_a;
+  r.chunks = r.chunks_simulated + r.chunks_from_prior;
+  r.rmse_train_mps2 = std::sqrt(s.rss_a / static_cast<double>(n_res_a));
+  r.yaw_rate_output = two_outputs;
+  if (incremental) {
+    r.noise_level_a_y = LevelOfSums(s.acf_a, static_cast<double>(n_res_a)) / (weights.a_y * weights.a_y);
+    if (two_outputs) {
+      r.rmse_train_yaw_radps = std::sqrt(s.rss_r / static_cast<double>(n_res - n_res_a));
+      r.noise_level_yaw_rate = LevelOfSums(s.acf_r, static_cast<double>(n_res - n_res_a)) / (weights.yaw_rate * weights.yaw_rate);
+    }
+  } else if (two_outputs) {
+    r.rmse_train_yaw_radps = std::sqrt(s.rss_r / static_cast<double>(n_res - n_res_a));
+    r.noise_level_a_y = ResidualNoiseLevel(s.series_a, threads) / (weights.a_y * weights.a_y);
+    r.noise_level_yaw_rate = ResidualNoiseLevel(s.series_r, threads) / (weights.yaw_rate * weights.yaw_rate);
+  } else {
+    r.noise_level_a_y = ResidualNoiseLevel(s.series_a, threads);
+  }
+  if (two_outputs && r.noise_level_a_y > 0 && r.noise_level_yaw_rate > 0) {
+    spdlog::debug("two outputs: fitted with the weight ratio yaw rate / a_y {:.4g}{}; the noise levels at the solution give {:.4g}",
+                  weights.yaw_rate / weights.a_y, incremental ? " (the prior's)" : "",
+                  std::sqrt(r.noise_level_a_y / r.noise_level_yaw_rate));
+  }
+  if (incremental) {
+    r.floor_a_y_mps2 = SumsFloor(s.acf_a, static_cast<double>(n_res_a), weights.a_y);
+    if (two_outputs) r.floor_yaw_radps = SumsFloor(s.acf_r, static_cast<double>(n_res - n_res_a), weights.yaw_rate);
+  } else {
+    r.floor_a_y_mps2 = SeriesFloor(s.series_a, two_outputs ? weights.a_y : 1.0);
+    if (two_outputs) r.floor_yaw_radps = SeriesFloor(s.series_r, weights.yaw_rate);
+  }
+  if (!std::isfinite(r.rmse_train_mps2)) {
+    r.reason = "non-finite residuals at the solution";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace ndsid::identify
