@@ -1,4 +1,5 @@
 #include "ndsid/adequacy/fit_checks.h"
+#include "ndsid/common/format.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,16 +8,6 @@
 
 namespace ndsid::adequacy {
 namespace {
-
-std::string Fmt(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string Fmt(const char* format, ...) {
-  char buf[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
-}
 
 Check Converged(const FitFacts& f) {
   Check c{.name = "converged"};

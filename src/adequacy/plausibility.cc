@@ -1,4 +1,5 @@
 #include "ndsid/adequacy/plausibility.h"
+#include "ndsid/common/format.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,16 +37,6 @@ struct DriveSums {
   bool steer_uses_yaw = true;
   int64_t t0_ns = INT64_MAX;
 };
-
-std::string Fmt(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string Fmt(const char* format, ...) {
-  char buf[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
-}
 
 // Samples that carry the information: turning enough that v r or a_y (or d_sw) stands out of the
 // noise.

@@ -5,19 +5,10 @@
 #include <cstdio>
 
 #include "ndsid/model/single_track.h"
+#include "ndsid/common/format.h"
 
 namespace ndsid::desk {
 namespace {
-
-std::string Fmt(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string Fmt(const char* format, ...) {
-  char buf[1024];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return buf;
-}
 
 // The names of the failed checks, ", "-joined.
 std::string FailedNames(const adequacy::PlausibilityReport& pl) {
