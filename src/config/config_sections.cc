@@ -76,8 +76,15 @@ double Ranged(const YamlReader& r, const std::string& key, double fallback, doub
 void ReadVehicle(const YamlReader& v, VehicleConfig& vehicle) {
   vehicle.name = v.String("name");
   if (vehicle.name.empty()) v.Fail("name", "must not be empty");
+  // Both from the data sheet, never a default: EG scales with l, and the box and the units of Jz and
+  // the stiffnesses with m (ndsid init writes the key commented out when it was not given).
+  if (!v.Has("wheelbase_m")) v.Fail("wheelbase_m", "not stated; EG scales with it: set l [m] from the data sheet");
   vehicle.wheelbase_m = v.Number("wheelbase_m");
   CheckRange(v, "wheelbase_m", vehicle.wheelbase_m, 1.0, 8.0);
+  if (!v.Has("mass_kg")) {
+    v.Fail("mass_kg", "not stated; the parameter box and the units of Jz and the stiffnesses need it: set m [kg] from "
+                      "the data sheet");
+  }
   vehicle.mass_kg = v.Number("mass_kg");
   CheckRange(v, "mass_kg", vehicle.mass_kg, 200.0, 60000.0);
   // Optional data-sheet values (0: not given): the axle loads narrow the box's lv.

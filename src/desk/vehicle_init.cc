@@ -219,7 +219,7 @@ KinematicChoice ProposeKinematicRoles(const BusData& data, Grid& grid, const Tri
   const double v99 = Percentile(Abs(grid.Of(*best.v)), 0.99);
   const double r99 = Percentile(Abs(grid.Of(*best.r)), 0.99);
   const double a99 = Percentile(Abs(grid.Of(*best.a)), 0.99);
-  const WheelChoice wheel = ChooseWheels(grid, wheels, *best.v, v99);
+  const WheelChoice wheel = ChooseWheels(grid, wheels, *best.v, v99, best.r);
   const UnitPosterior u = ChooseUnits(best, v99, r99, a99, wheel.factor);
   const size_t bv = u.bv, br = u.br, ba = u.ba;
   const double total = u.total;
@@ -346,7 +346,8 @@ InitResult ProposeVehicleConfig(const dbc::Database& db, can::FrameLog& log, con
   if (!k.v_si.empty()) {
     for (const auto& v : c.speed) {
       if (v.expression != RoleOf(result, Role::kSpeed).expression) continue;
-      ProposeWheelSpeed(data, grid, ChooseWheels(grid, c.wheels, v, Percentile(Abs(grid.Of(v)), 0.99)), k.v_si, result);
+      ProposeWheelSpeed(data, grid, ChooseWheels(grid, c.wheels, v, Percentile(Abs(grid.Of(v)), 0.99), yaw_found ? best.r : nullptr),
+                        k.v_si, result);
       break;
     }
   }

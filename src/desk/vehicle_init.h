@@ -70,8 +70,6 @@ struct VehicleSheet {
   double track_front_m = 0;         // optional track widths
   double track_rear_m = 0;
 };
-inline constexpr double kPlaceholderWheelbase_m = 2.7;  // written, marked CHECK, when l is not given
-inline constexpr double kPlaceholderMass_kg = 1500.0;
 
 // Paths as they are to be written into the YAML (relative to the output file's folder).
 struct InitYamlInputs {

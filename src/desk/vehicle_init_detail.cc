@@ -134,8 +134,10 @@ int BaseNameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
     }
     case RoleKind::kWheelSpeed: {
       // A corner, and a speed: by its unit (km/h, m/s, mph, or 1/min: a rolling radius is fitted
-      // later) or by its name. The data decide which of them follow the vehicle speed.
-      if (WheelCorner(m, s) < 0) return 0;
+      // later) or by its name. The data decide which of them follow the vehicle speed. Without a
+      // corner in the names, any speed-like signal is a weak candidate: the wheels among them are
+      // told by their left-right deviation against the yaw rate (ChooseWheels).
+      const bool corner = WheelCorner(m, s) >= 0;
       const bool wheel = Any(t, {"wheel", "whl", "rad", "rd"}) || Any(mt, {"wheel", "whl", "rad"});
       const bool named = Any(t, {"speed", "spd", "veloc", "rpm"}) || Contains(low, {"geschw", "drehzahl"}) ||
                          Any(mt, {"speed", "spd"}) || Contains(Lower(m.name), {"geschw", "drehzahl"});
@@ -143,6 +145,7 @@ int BaseNameScore(RoleKind kind, const dbc::Message& m, const dbc::Signal& s) {
       if (Any(t, {"press", "druck", "temp", "torque", "moment", "slip", "schlupf", "brake", "brems", "puls", "impuls",
                   "tick", "edge", "flank", "dist", "weg", "height", "hoehe", "level", "niveau"}))
         return 0;
+      if (!corner) return unit || (wheel && named) ? 1 : 0;
       return unit || named ? 2 + wheel + (unit && named) : 0;
     }
     case RoleKind::kLatAccel: {

@@ -139,16 +139,19 @@ void ProposeLongitudinal(const BusData& data, Grid& grid, const std::vector<doub
                          InitResult& result);
 
 // The wheel speeds by physics: per corner the candidate that follows the vehicle speed best,
-// kept when its correlation while moving is above 0.95 (at least two corners, one kind of unit).
+// kept when its correlation while moving is above 0.95 (at least two corners, one kind of unit);
+// without two named corners, and given the yaw rate's candidate, the signals whose deviation from
+// the vehicle speed follows the yaw rate with both signs (left and right wheels).
 struct WheelChoice {
-  std::vector<Source> wheels;  // the kept ones, FL FR RL RR order
+  std::vector<Source> wheels;  // the kept ones (FL FR RL RR order where named)
   std::vector<double> corr;    // each one's correlation with the vehicle speed
   bool rpm = false;            // rotational speeds (1/min): their scale is a rolling radius
   double ratio = NAN;          // vehicle speed / the wheels' mean, both in bus units (median while moving)
   double factor = NAN;         // the speed's unit factor to SI that the wheels' DBC speed unit implies
   std::string text;            // the evidence ("" when no wheels were kept)
 };
-WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, const Source& speed, double v99);
+WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, const Source& speed, double v99,
+                         const Source* yaw);
 
 // The optional wheel_speed role: the kept wheels' mean, its scale regressed on the vehicle speed
 // v_si [m/s] on the grid (a unit, or a factor and the speed's unit: 1/min with a rolling radius).

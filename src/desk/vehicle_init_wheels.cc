@@ -1,6 +1,10 @@
 // `ndsid init`'s wheel speeds (vehicle_init_detail.h): chosen by physics, not by their names.
 // Every signal with a corner and a speed-like unit or name is a candidate; per corner the one
-// that follows the vehicle speed best is kept when it correlates above 0.95 while moving. The
+// that follows the vehicle speed best is kept when it correlates above 0.95 while moving. Where
+// the names give no corners, the wheels are told from other speeds by their left-right
+// difference: a wheel runs r b/2 faster or slower than the centre of the axle, so its deviation
+// from the vehicle speed follows the yaw rate, with one sign on the left and the other on the
+// right (a copy of the vehicle speed, a displayed speed or a transmission speed does not). The
 // mean of the kept ones regressed on the vehicle speed gives their scale: a unit (km/h, m/s,
 // mph) or, for rotational speeds (1/min), the rolling radius.
 #include <spdlog/fmt/fmt.h>
@@ -43,9 +47,76 @@ std::string SumOf(const std::vector<Source>& wheels) {
   return "(" + sum + ")";
 }
 
+// The wheels without a corner in their names: candidates that follow the vehicle speed, scaled
+// onto it, whose deviation from it follows the yaw rate r (bus units) with a correlation above
+// 0.5; kept when both signs of that slope (left and right) are among them, with slopes within a
+// factor 2 of each other (the same half-track on both sides).
+struct SideWheel {
+  const Source* source;
+  double corr_v;     // with the vehicle speed
+  double slope;      // of (scaled wheel - speed) on r: +-b/2 by side (bus units; which is left: r's sign)
+  double corr_r;     // of that deviation with r
+};
+constexpr double kSideCorrelationMin = 0.5;
+
+std::vector<SideWheel> WheelsBySide(Grid& grid, const std::vector<Source>& candidates, const Source& speed,
+                                    const std::vector<double>& vg, const std::vector<double>& r) {
+  std::vector<SideWheel> found;
+  for (const auto& c : candidates) {
+    if (c.corner >= 0 || c.terms.size() != 1 || c.terms == speed.terms || KindOf(c) == WheelUnit::kUnknown) continue;
+    const std::vector<double>& w = grid.Of(c);
+    const Fit f = LinearFit(vg, w);
+    if (f.n < 100 || !(f.corr > kWheelCorrelationMin)) continue;
+    std::vector<double> ratio;
+    for (size_t i = 0; i < w.size() && i < vg.size(); ++i)
+      if (std::isfinite(vg[i]) && std::isfinite(w[i]) && w[i] != 0) ratio.push_back(vg[i] / w[i]);
+    const double k = Percentile(ratio, 0.5);
+    if (!std::isfinite(k)) continue;
+    std::vector<double> dev(w.size(), NAN);
+    for (size_t i = 0; i < w.size() && i < vg.size(); ++i) dev[i] = k * w[i] - vg[i];
+    const Fit side = LinearFit(r, dev);
+    if (side.n < 100 || !(std::fabs(side.corr) > kSideCorrelationMin)) continue;
+    found.push_back({&c, f.corr, side.gain, side.corr});
+  }
+  // Both sides, one half-track: drop those whose |slope| is over 2x from the median |slope|.
+  std::vector<double> mags;
+  for (const auto& s : found) mags.push_back(std::fabs(s.slope));
+  const double mid = Percentile(mags, 0.5);
+  std::erase_if(found, [&](const SideWheel& s) { return !(std::fabs(s.slope) > 0.5 * mid && std::fabs(s.slope) < 2 * mid); });
+  const bool left = std::any_of(found.begin(), found.end(), [](const SideWheel& s) { return s.slope < 0; });
+  const bool right = std::any_of(found.begin(), found.end(), [](const SideWheel& s) { return s.slope > 0; });
+  if (!left || !right) found.clear();
+  return found;
+}
+
+// The wheels by side, in one kind of unit (the best correlated one's), as a WheelChoice.
+WheelChoice WheelsWithoutCorners(Grid& grid, const std::vector<Source>& candidates, const Source& speed,
+                                 const std::vector<double>& vg, const std::vector<double>& r) {
+  WheelChoice w;
+  const std::vector<SideWheel> sides = WheelsBySide(grid, candidates, speed, vg, r);
+  if (sides.empty()) return w;
+  const auto top = std::max_element(sides.begin(), sides.end(),
+                                    [](const SideWheel& a, const SideWheel& b) { return a.corr_v < b.corr_v; });
+  const WheelUnit kind = KindOf(*top->source);
+  std::string list;
+  for (const auto& s : sides) {
+    if (KindOf(*s.source) != kind) continue;
+    w.wheels.push_back(*s.source);
+    w.corr.push_back(s.corr_v);
+    list += fmt::format("{}{} (corr {:.4f} with the speed; deviation on r: slope {:+.3g}, corr {:+.2f})",
+                        list.empty() ? "" : ", ", s.source->expression, s.corr_v, s.slope, s.corr_r);
+  }
+  w.text = fmt::format("wheel speeds without a corner in their names, told from other speeds by their deviation from the "
+                       "vehicle speed following the bus's yaw rate (|corr| > {:.1f}, slopes of both signs: the two sides of "
+                       "the car): {}",
+                       kSideCorrelationMin, list);
+  return w;
+}
+
 }  // namespace
 
-WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, const Source& speed, double v99) {
+WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, const Source& speed, double v99,
+                         const Source* yaw) {
   WheelChoice w;
   if (candidates.empty() || !(v99 > 0)) return w;
   std::vector<double> vg = grid.Of(speed);
@@ -65,20 +136,27 @@ WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, cons
   int top = -1;
   for (int k = 0; k < 4; ++k)
     if (best[k] && best_corr[k] > kWheelCorrelationMin && (top < 0 || best_corr[k] > best_corr[top])) top = k;
-  if (top < 0) return w;
-  const WheelUnit kind = KindOf(*best[top]);
   std::string list;
-  for (int k = 0; k < 4; ++k) {
-    if (!best[k] || !(best_corr[k] > kWheelCorrelationMin) || KindOf(*best[k]) != kind) continue;
-    w.wheels.push_back(*best[k]);
-    w.corr.push_back(best_corr[k]);
-    list += fmt::format("{}{} {} (corr {:.4f})", list.empty() ? "" : ", ", kCornerNames[k], best[k]->expression, best_corr[k]);
+  if (top >= 0) {
+    const WheelUnit kind = KindOf(*best[top]);
+    for (int k = 0; k < 4; ++k) {
+      if (!best[k] || !(best_corr[k] > kWheelCorrelationMin) || KindOf(*best[k]) != kind) continue;
+      w.wheels.push_back(*best[k]);
+      w.corr.push_back(best_corr[k]);
+      list += fmt::format("{}{} {} (corr {:.4f})", list.empty() ? "" : ", ", kCornerNames[k], best[k]->expression, best_corr[k]);
+    }
+  }
+  std::string found_by = fmt::format("wheel speeds by correlation with the vehicle speed while moving (> {:.2f}): {}",
+                                     kWheelCorrelationMin, list);
+  if (w.wheels.size() < 2 && yaw != nullptr) {
+    w = WheelsWithoutCorners(grid, candidates, speed, vg, grid.Of(*yaw));
+    found_by = w.text;
   }
   if (w.wheels.size() < 2) {
     w.wheels.clear();
     return w;
   }
-  w.rpm = kind == WheelUnit::kRpm;
+  w.rpm = KindOf(w.wheels.front()) == WheelUnit::kRpm;
   const std::vector<double> mean = MeanOf(grid, w.wheels);
   std::vector<double> ratio;
   for (size_t i = 0; i < mean.size(); ++i)
@@ -91,9 +169,7 @@ WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, cons
   const auto& su = SpeedUnits();
   const int wu = MatchUnit(su, w.wheels.front().unit);
   if (wu >= 0 && w.ratio != 0) w.factor = su[static_cast<size_t>(wu)].to_si / std::fabs(w.ratio);
-  w.text = fmt::format("wheel speeds by correlation with the vehicle speed while moving (> {:.2f}): {}; speed / their mean "
-                       "= {:.4f} (median){}",
-                       kWheelCorrelationMin, list, w.ratio,
+  w.text = fmt::format("{}; speed / their mean = {:.4f} (median){}", found_by, w.ratio,
                        wu >= 0 ? fmt::format(", wheel speeds in {} by the DBC", su[static_cast<size_t>(wu)].name)
                        : w.rpm ? ", wheel speeds in 1/min by the DBC"
                                : "");

@@ -37,7 +37,8 @@ std::string Quoted(const std::string& s) {
 
 std::string Number(double x) { return fmt::format("{:g}", x); }
 
-// The vehicle section: the data-sheet values given, placeholders marked CHECK for the others.
+// The vehicle section: the data-sheet values given; a value not given is written as a commented-out
+// key that says why the file does not load without it (no placeholder that would load).
 void WriteVehicle(std::ostringstream& y, const InitYamlInputs& in) {
   const VehicleSheet& v = in.vehicle;
   y << "vehicle:\n"
@@ -45,16 +46,18 @@ void WriteVehicle(std::ostringstream& y, const InitYamlInputs& in) {
   if (std::isfinite(v.wheelbase_m)) {
     y << "  wheelbase_m: " << Number(v.wheelbase_m) << "   # l from --wheelbase [m]; EG scales with it\n";
   } else {
-    y << "  # CHECK: PLACEHOLDER, not this car's wheelbase. EG scales with l: a wheelbase 2 % off gives an EG\n"
-      << "  # 2 % off, published as valid. Set l from the data sheet (or run init again with --wheelbase).\n"
-      << "  wheelbase_m: " << Number(kPlaceholderWheelbase_m) << "   # CHECK placeholder [m]\n";
+    y << "  # NOT STATED: this car's wheelbase l [m]. EG scales with it (l 2 % off gives EG 2 % off), so this\n"
+      << "  # file does not load until it is set: uncomment the key with l from the data sheet (or run init\n"
+      << "  # again with --wheelbase).\n"
+      << "  # wheelbase_m:\n";
   }
   if (std::isfinite(v.mass_kg)) {
     y << "  mass_kg: " << Number(v.mass_kg) << "   # m [kg] (curb + driver) from the command line; the parameter box scales with it\n";
   } else {
-    y << "  # CHECK: PLACEHOLDER mass. It does not move EG, but Jz and the cornering stiffnesses are reported in\n"
-      << "  # its units and the parameter box is built from it. Set m from the data sheet (or --mass).\n"
-      << "  mass_kg: " << Number(kPlaceholderMass_kg) << "   # CHECK placeholder [kg]\n";
+    y << "  # NOT STATED: this car's mass m [kg] (curb + driver). It does not move EG, but Jz and the cornering\n"
+      << "  # stiffnesses are reported in its units and the parameter box is built from it, so this file does\n"
+      << "  # not load until it is set: uncomment the key with m from the data sheet (or run init with --mass).\n"
+      << "  # mass_kg:\n";
   }
   if (v.front_axle_load_kg > 0 && v.rear_axle_load_kg > 0) {
     y << "  front_axle_load_kg: " << Number(v.front_axle_load_kg) << "   # data sheet: centre the box's lv\n"
@@ -145,14 +148,12 @@ std::string InitSummary(const InitResult& result, const VehicleSheet& vehicle) {
   o << (result.MandatoryFound() ? "required roles (steering, speed, a_y): found\n"
                                 : "required roles (steering, speed, a_y): NOT all found; the config has them commented out\n");
   if (!std::isfinite(vehicle.wheelbase_m)) {
-    o << fmt::format("WARNING: vehicle.wheelbase_m is a placeholder ({:g} m, marked CHECK): EG scales with the wheelbase; "
-                     "set it from the data sheet or run init again with --wheelbase\n",
-                     kPlaceholderWheelbase_m);
+    o << "WARNING: vehicle.wheelbase_m is not stated: EG scales with the wheelbase, so the written file does not "
+         "load until it is set from the data sheet (or run init again with --wheelbase)\n";
   }
   if (!std::isfinite(vehicle.mass_kg)) {
-    o << fmt::format("WARNING: vehicle.mass_kg is a placeholder ({:g} kg, marked CHECK): set it from the data sheet or use "
-                     "--mass\n",
-                     kPlaceholderMass_kg);
+    o << "WARNING: vehicle.mass_kg is not stated: the parameter box and the units of Jz and the stiffnesses need it, "
+         "so the written file does not load until it is set (or run init again with --mass)\n";
   }
   return o.str();
 }

@@ -12,6 +12,9 @@ Each bus style is a DBC written here, with the simulated signals put on it by
   motorola_mph    English names, every signal Motorola (big-endian), the speed in mph, a_y
                   positive to the right and a clockwise yaw rate with nothing saying so, wheel
                   speeds in km/h, decoys: a displayed speed 3 % high, a steering rate, counters
+  motorola_numbered  as motorola_mph, but the wheel speeds named WhlSpd_1..4 (FR, RL, RR, FL) with
+                  no corner in any name and 0.3 km/h of white noise each: init tells them from the speed, the displayed speed and
+                  each other by their deviation from the speed against the yaw rate
   german_noisy    German names, Motorola, steering in rad, yaw rate in rad/s, wheel speeds in m/s
                   named "links vorne" ..., an IMU that vibrates (white noise: a_y 0.7 m/s², yaw 0.5 deg/s)
 each on two vehicle classes (the default C-Max-class car; a van: l 3.4 m, 2 800 kg) and seeds.
@@ -19,7 +22,8 @@ A last case is not simulated: a low-speed utility vehicle (2–8 m/s, steering �
 accelerometer) on which init must find the steering and condition a_y (no EG: the single-track
 model is not what moves it).
 
-Catches: roles found by naming luck (a decoy chosen), wheel speeds in rpm not proposed, the
+Catches: roles found by naming luck (a decoy chosen), wheel speeds in rpm or without corner names not
+proposed, the
 steering missed at low speed or with a noisy IMU, a_y's noise not conditioned, the wheelbase not
 written (EG off by l's error), a unit or sign wrong (EG off or no estimate).
 Usage: init_matrix_test.py NDSID_EXE SOURCE_DIR OUT_DIR [CASE ...]"""
@@ -166,7 +170,12 @@ def german_rpm(track_m):
     return dbc_text(msgs, comments), mapping, every, columns, expect
 
 
-def motorola_mph(track_m):
+def motorola_mph(track_m, numbered=False):
+    # numbered: the wheel speeds named WhlSpd_1..4 in the order FR, RL, RR, FL, with no corner in
+    # any name (init must tell them from the other speeds by their left-right deviation).
+    wheel_names = ["WhlSpd_4", "WhlSpd_1", "WhlSpd_2", "WhlSpd_3"] if numbered else \
+        ["WheelSpeedFL", "WheelSpeedFR", "WheelSpeedRL", "WheelSpeedRR"]
+    wheel_msg = "ABS_Data" if numbered else "EBCM_WheelSpeeds"
     msgs = [
         (485, "PSCM_Status", ["SteeringWheelAngle : 7|16@0- (0.0625,0) [-2048|2047.9375] \"deg\"",
                               "SteeringWheelRate : 23|16@0- (1,0) [-2048|2047] \"deg/s\"",
@@ -180,11 +189,12 @@ def motorola_mph(track_m):
         (1001, "ECM_VehicleSpeed", ["VehicleSpeed : 7|16@0+ (0.01,0) [0|655.35] \"mph\"",
                                     "DisplayedVehicleSpeed : 23|16@0+ (0.01,0) [0|655.35] \"mph\"",
                                     "ECM_Counter : 39|4@0+ (1,0) [0|15] \"\""]),
-        (840, "EBCM_WheelSpeeds", ["WheelSpeedFL : 7|16@0+ (0.01,0) [0|655.35] \"km/h\"",
-                                   "WheelSpeedFR : 23|16@0+ (0.01,0) [0|655.35] \"km/h\"",
-                                   "WheelSpeedRL : 39|16@0+ (0.01,0) [0|655.35] \"km/h\"",
-                                   "WheelSpeedRR : 55|16@0+ (0.01,0) [0|655.35] \"km/h\""]),
+        (840, wheel_msg, [f"{wheel_names[k]} : {7 + 16 * k}|16@0+ (0.01,0) [0|655.35] \"km/h\"" for k in range(4)]),
     ]
+
+    rng = np.random.default_rng(7)
+    # The numbered wheels also carry 0.3 km/h of white noise each (a sensor's jitter and slip).
+    noise = (lambda n: rng.normal(0.0, 0.3, n)) if numbered else (lambda n: 0.0)
 
     def columns(df):
         left, right = wheel_speeds_mps(df, track_m)
@@ -193,7 +203,8 @@ def motorola_mph(track_m):
             "swa": df["steer_sw_meas_deg"], "swr": steer_rate(df),
             "ay_right": -df["a_y_meas_mps2"], "yaw_cw": -df["yaw_rate_meas_degps"], "ax": df["a_x_meas_mps2"],
             "v_mph": mph, "disp_mph": 1.03 * mph,
-            "w_fl": 3.6 * left, "w_fr": 3.6 * right, "w_rl": 3.6 * left, "w_rr": 3.6 * right,
+            **{k: 3.6 * side + noise(len(df)) for k, side in (("w_fl", left), ("w_fr", right), ("w_rl", left),
+                                                              ("w_rr", right))},
             "cnt": counters(df, 16), "crc16": np.mod(crc(df, "steer_sw_meas_deg") * 257, 65536),
             "crc8": crc(df, "a_y_meas_mps2"),
         }
@@ -205,10 +216,9 @@ def motorola_mph(track_m):
         "EBCM_VehicleDynamic.EBCM_CRC": "crc8",
         "ECM_VehicleSpeed.VehicleSpeed": "v_mph", "ECM_VehicleSpeed.DisplayedVehicleSpeed": "disp_mph",
         "ECM_VehicleSpeed.ECM_Counter": "cnt",
-        "EBCM_WheelSpeeds.WheelSpeedFL": "w_fl", "EBCM_WheelSpeeds.WheelSpeedFR": "w_fr",
-        "EBCM_WheelSpeeds.WheelSpeedRL": "w_rl", "EBCM_WheelSpeeds.WheelSpeedRR": "w_rr",
+        **{f"{wheel_msg}.{wheel_names[k]}": col for k, col in enumerate(["w_fl", "w_fr", "w_rl", "w_rr"])},
     }
-    every = {"PSCM_Status": 1, "EBCM_VehicleDynamic": 1, "ECM_VehicleSpeed": 2, "EBCM_WheelSpeeds": 2}
+    every = {"PSCM_Status": 1, "EBCM_VehicleDynamic": 1, "ECM_VehicleSpeed": 2, wheel_msg: 2}
     # Nothing says which way is left: init assumes the yaw rate positive to the left, so all three
     # lateral roles come out mirrored together (relative signs right; EG does not change).
     expect = {
@@ -217,9 +227,13 @@ def motorola_mph(track_m):
         "lateral_acceleration": ("EBCM_VehicleDynamic.LateralAcceleration", "m/s^2", 1),
         "yaw_rate": ("EBCM_VehicleDynamic.YawRate", "deg/s", 1),
         "longitudinal_acceleration": ("EBCM_VehicleDynamic.LongitudinalAcceleration", "m/s^2", 1),
-        "wheel_speed": ("EBCM_WheelSpeeds.WheelSpeed", "km/h", 1),
+        "wheel_speed": (f"{wheel_msg}.{'WhlSpd_' if numbered else 'WheelSpeed'}", "km/h", 1),
     }
     return dbc_text(msgs, {}), mapping, every, columns, expect
+
+
+def motorola_numbered(track_m):
+    return motorola_mph(track_m, numbered=True)
 
 
 def german_noisy(track_m):
@@ -269,7 +283,8 @@ def german_noisy(track_m):
     return dbc_text(msgs, comments), mapping, every, columns, expect
 
 
-STYLES = {"german_rpm": german_rpm, "motorola_mph": motorola_mph, "german_noisy": german_noisy}
+STYLES = {"german_rpm": german_rpm, "motorola_mph": motorola_mph, "motorola_numbered": motorola_numbered,
+          "german_noisy": german_noisy}
 NOISY = {"noise": {"lat_accel_mps2": 0.7, "yaw_rate_degps": 0.5}}
 # (style, vehicle class, seed, simulator overrides, roles whose lowpass_hz init must write)
 CASES = [
@@ -277,6 +292,8 @@ CASES = [
     ("german_rpm", "van", 12, {}, set()),
     ("motorola_mph", "car", 21, {}, set()),
     ("motorola_mph", "van", 22, {}, set()),
+    ("motorola_numbered", "car", 41, {}, set()),
+    ("motorola_numbered", "van", 42, {}, set()),
     ("german_noisy", "car", 31, NOISY, {"lateral_acceleration"}),
     ("german_noisy", "van", 32, NOISY, {"lateral_acceleration"}),
 ]
@@ -307,7 +324,8 @@ def check_roles(name, roles, expect, lowpass_roles, errors):
             errors.append(f"{name}: {role} not found")
             continue
         if role == "wheel_speed":
-            if got[0].count(expr) != 4 or (unit and got[1] != unit):
+            terms = re.findall(r"[A-Za-z_]\w*\.\w+", got[0])  # MESSAGE.SIGNAL terms: the four wheels, nothing else
+            if len(terms) != 4 or any(not t.startswith(expr) for t in terms) or (unit and got[1] != unit):
                 errors.append(f"{name}: wheel_speed {got[0]} [{got[1]}], expected four of {expr}* [{unit}]")
             continue
         if (got[0], got[1], got[2]) != (expr, unit, sign):

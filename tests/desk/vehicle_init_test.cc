@@ -29,6 +29,9 @@ namespace {
 namespace fs = std::filesystem;
 using config::Role;
 
+// The simulated car's data sheet (the written config loads only with a wheelbase and a mass).
+const VehicleSheet kSimSheet{.wheelbase_m = 2.648, .mass_kg = 1900};
+
 std::string ReadText(const std::string& path) {
   std::ifstream in(path);
   std::stringstream s;
@@ -214,7 +217,7 @@ TEST_F(SimulatedBus, WrittenConfigLoadsAndListsRolesNotFound) {
   const InitResult r = Propose(dbc, log_);
   ASSERT_TRUE(r.MandatoryFound());
   EXPECT_FALSE(r.Find(Role::kLongitudinalAcceleration)->found);
-  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", {}});
+  const std::string yaml = VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", kSimSheet});
   EXPECT_NE(yaml.find("# longitudinal_acceleration: not found: no varying signal named like"), std::string::npos) << yaml;
   const fs::path out = dir_ / "vehicle.yaml";
   std::ofstream(out) << yaml;
@@ -243,7 +246,7 @@ TEST_F(SimulatedBus, WithoutAYawRateTheConfigFitsAyAlone) {
   ASSERT_TRUE(r.MandatoryFound());
   ASSERT_FALSE(r.Find(Role::kYawRate)->found);
   const fs::path out = dir_ / "no_yaw.yaml";
-  std::ofstream(out) << VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", {}});
+  std::ofstream(out) << VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", kSimSheet});
   const config::Config c = config::LoadConfig(out.string());
   EXPECT_FALSE(c.identification.yaw_rate_output);
   EXPECT_TRUE(c.model_effects.empty());

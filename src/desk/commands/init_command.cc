@@ -182,10 +182,11 @@ void RegisterInit(CLI::App& parent, int& exit_code) {
                   "vehicle.name, which keys the learned state (default: the log's and the DBC's file names, made unique "
                   "among the configs of the output folder)");
   cmd->add_option("--wheelbase", args->vehicle.wheelbase_m,
-                  "wheelbase l [m] from the data sheet, written as vehicle.wheelbase_m (EG scales with it; without it a "
-                  "placeholder marked CHECK)")
+                  "wheelbase l [m] from the data sheet, written as vehicle.wheelbase_m (EG scales with it; without it "
+                  "the key is written commented out and the file does not load until it is set)")
       ->check(CLI::Range(1.0, 8.0));
-  cmd->add_option("--mass", args->vehicle.mass_kg, "mass m [kg] (curb + driver), written as vehicle.mass_kg")
+  cmd->add_option("--mass", args->vehicle.mass_kg, "mass m [kg] (curb + driver), written as vehicle.mass_kg (without it the key is written commented "
+                  "out and the file does not load until it is set)")
       ->check(CLI::Range(200.0, 60000.0));
   cmd->add_option("--front-axle-load-kg", args->vehicle.front_axle_load_kg, "front axle load [kg] (with --rear-axle-load-kg)")
       ->check(CLI::Range(1.0, 60000.0));
