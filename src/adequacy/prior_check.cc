@@ -4,9 +4,6 @@
 #include <cstdio>
 
 namespace ndsid::adequacy {
-namespace {
-
-// chi-square 0.999 quantiles for 1..10 degrees of freedom; beyond, Wilson-Hilferty.
 double Chi2Quantile999(size_t dof) {
   static const double kTable[] = {10.83, 13.82, 16.27, 18.47, 20.52, 22.46, 24.32, 26.12, 27.88, 29.59};
   if (dof >= 1 && dof <= 10) return kTable[dof - 1];
@@ -14,8 +11,6 @@ double Chi2Quantile999(size_t dof) {
   const double c = 2.0 / (9.0 * k);
   return k * std::pow(1.0 - c + z * std::sqrt(c), 3);
 }
-
-}  // namespace
 
 PriorDistance DistanceFromPriors(const std::vector<FittedParameter>& fit, const std::vector<config::ParameterPrior>& priors) {
   PriorDistance d;

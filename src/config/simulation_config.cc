@@ -39,6 +39,10 @@ const std::vector<EffectInfo>& EffectTable() {
        &SimEffects::lever_arm_m},
       {"tyre_mu", "-", "tyre saturation F = D*tanh(c*alpha/D), D = mu*Fz per axle (0 = linear)", "0.7..1.0",
        &SimEffects::tyre_mu},
+      {"rear_stiffness_speed_pct", "%",
+       "rear cornering stiffness rising with speed (aerodynamic downforce; outside the model library): "
+       "ch(v) = ch (1 + k (v / 30 m/s)^2), k here",
+       "0..30", &SimEffects::rear_stiffness_speed_pct},
       {"relaxation_length_m", "m", "tyre relaxation: slip angle lags with tau = sigma/v", "0.3..1",
        &SimEffects::relaxation_length_m},
       {"steer_delay_ms", "ms", "steering message carries d_sw from dt earlier than the accelerometer", "20..150",
@@ -325,6 +329,8 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   const auto& e = c.effects;
   require(e.tyre_mu >= 0.0 && e.tyre_mu <= 2.0, "effects.tyre_mu must be in [0, 2] (0 = linear tyres)");
   require(e.relaxation_length_m >= 0.0 && e.relaxation_length_m <= 5.0, "effects.relaxation_length_m in [0, 5] m");
+  require(e.rear_stiffness_speed_pct >= -50.0 && e.rear_stiffness_speed_pct <= 200.0,
+          "effects.rear_stiffness_speed_pct in [-50, 200] %");
   require(e.steer_delay_ms >= 0.0 && e.steer_delay_ms <= 1000.0, "effects.steer_delay_ms in [0, 1000] ms");
   require(e.roll_frequency_hz > 0.2 && e.roll_frequency_hz < 10.0, "effects.roll_frequency_hz in (0.2, 10) Hz");
   require(e.roll_damping_ratio > 0.05 && e.roll_damping_ratio < 3.0, "effects.roll_damping_ratio in (0.05, 3)");

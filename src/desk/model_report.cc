@@ -360,6 +360,8 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
   };
   c.bins = bins(false);
   if (c.has_yaw_rate) c.yaw_bins = bins(true);
+  c.gains = ComputeGainView(c.rows, nm, false);
+  if (c.has_yaw_rate) c.yaw_gains = ComputeGainView(c.rows, nm, true);
   return c;
 }
 
@@ -408,6 +410,8 @@ void PrintComparison(const Comparison& c) {
   };
   table(c.bins, "where it fails: residual e = a_y,meas - a_y,model [m/s^2]");
   if (c.has_yaw_rate) table(c.yaw_bins, "where it fails, yaw rate: residual e_r = r_meas - r_model [deg/s]");
+  PrintGainView(c.gains, c.models, "a_y");
+  if (c.has_yaw_rate) PrintGainView(c.yaw_gains, c.models, "yaw rate");
 }
 
 std::string HtmlEscape(const std::string& s) {

@@ -79,6 +79,37 @@ struct Bin {
   std::vector<BinStats> per_model;
 };
 
+// The signed view of "where it fails": per speed band, the gain error k of the residual on the
+// modelled output (e = c + k y_model: measured = model x (1 + k) where the model is right up to a
+// gain), with its chunk-clustered standard error. An error odd in the output (a gain that is off)
+// cancels in the bias columns of the bins; here it shows with its sign, and a gain that changes
+// with speed is the signature of an effect whose gain depends on speed.
+struct GainBand {
+  std::string label;  // "10-15" [m/s]
+  size_t n = 0;
+  int clusters = 0;
+  double gain = NAN, se = NAN;  // k [-]; NaN when too few samples or no spread in the output
+  bool judged = false;          // at least kMinBinSamples samples in kGainMinChunks chunks
+  bool flagged = false;         // judged, |k| > kGainZ se and |k| > kGainMin
+};
+struct GainView {
+  std::vector<std::vector<GainBand>> per_model;  // [model][band]
+  std::vector<double> chi2;                      // per model: the bands' gains against their mean
+  std::vector<int> dof;                          // judged bands - 1
+  std::vector<bool> speed_dependent;             // chi2 above its 0.999 quantile and gains > kGainMin apart
+};
+inline constexpr double kGainZ = 3.0;
+inline constexpr double kGainMin = 0.01;  // gain errors (and their differences) below 1 % are not flagged
+inline constexpr int kGainMinChunks = 10;  // a clustered SE from fewer chunks is not trusted
+// Residuals of the scored rows (a_y [m/s^2], or the yaw rate when `yaw`) in 5 m/s speed bands.
+GainView ComputeGainView(const std::vector<SampleRow>& rows, size_t models, bool yaw);
+void PrintGainView(const GainView& view, const std::vector<FittedModel>& models, const char* output);
+// gain_bands.csv rows (output,band,model,n,clusters,gain,se,judged,flagged; header when `header`), the
+// summary.json object and the report's HTML table of one output's view.
+std::string GainViewCsv(const GainView& view, const std::vector<FittedModel>& models, const char* output, bool header);
+std::string GainViewJson(const GainView& view, const std::vector<FittedModel>& models);
+std::string GainViewHtml(const GainView& view, const std::vector<FittedModel>& models, const char* output);
+
 struct FitFigures {  // per model and set
   double rmse = -1, nrmse_fit_pct = 0, bias = 0;
   size_t n = 0;
@@ -103,6 +134,7 @@ struct Comparison {
   std::vector<double> yaw_overall_rmse;   // deg/s, per model
   std::vector<FitFigures> yaw_train, yaw_validation;  // deg/s
   std::vector<Bin> yaw_bins;
+  GainView gains, yaw_gains;  // the signed view per speed band (yaw_gains with has_yaw_rate)
 };
 
 // Failing-bin rule (docs/model-workflow.md): at least kMinBinSamples scored samples; bias
@@ -113,6 +145,7 @@ inline constexpr double kBiasZ = 3.0;
 inline constexpr double kRmseFactor = 1.5;
 BinStats ComputeBin(const std::vector<double>& e, const std::vector<int>& cluster, double noise_floor,
                     double overall_rmse);
+
 
 Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, std::optional<double> noise_floor);
 void PrintComparison(const Comparison& c);

@@ -7,6 +7,10 @@ namespace ndsid::sim {
 
 using model::kGravity_mps2;
 
+namespace {
+constexpr double kDownforceSpeed_mps = 30.0;  // rear_stiffness_speed_pct is the rise at this speed
+}  // namespace
+
 VehicleTruth::VehicleTruth(const model::Params<double>& params, double wheelbase_m, const config::SimEffects& effects,
                            const config::SimIntegration& integration)
     : p_(params),
@@ -52,7 +56,10 @@ TruthState VehicleTruth::Derivative(const TruthState& x, const TruthInputs& u, T
     a_f = x.alpha_f;
     a_r = x.alpha_r;
   }
-  double f_front = p_.cv * a_f, f_rear = p_.ch * a_r;
+  // Downforce (rear_stiffness_speed_pct): the rear axle stiffer with speed, an effect outside the
+  // model library that the desk's signed view must show as a gain changing with speed.
+  const double ch = p_.ch * (1.0 + 0.01 * fx_.rear_stiffness_speed_pct * (v_d / kDownforceSpeed_mps) * (v_d / kDownforceSpeed_mps));
+  double f_front = p_.cv * a_f, f_rear = ch * a_r;
   if (fx_.tyre_mu > 0.0) {  // F = D tanh(c alpha / D)
     f_front = d_front_n_ * std::tanh(f_front / d_front_n_);
     f_rear = d_rear_n_ * std::tanh(f_rear / d_rear_n_);

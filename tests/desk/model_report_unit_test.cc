@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -228,6 +229,64 @@ TEST(CompareCli, WritesReportWithoutPlotsAndSaysSoWhenPythonIsMissing) {
   EXPECT_NE(html.find("Where it fails"), std::string::npos);
   EXPECT_FALSE(fs::exists(out / "timeseries.png"));
   EXPECT_TRUE(fs::exists(out / "compare.csv"));
+}
+
+
+// The signed view on rows made with a known gain error per speed band: a_y,meas = (1 + k(v))
+// a_y,model + white noise, 40 chunks of 400 samples per band. Catches a gain with the wrong sign
+// or scale, a standard error that ignores the noise, and a speed dependence reported where the
+// gain is one and the same.
+std::vector<SampleRow> RowsWithGains(const std::vector<double>& band_gain, uint32_t seed) {
+  std::vector<SampleRow> rows;
+  uint32_t x = seed;
+  auto uniform = [&x] {  // xorshift32 in (0, 1)
+    x ^= x << 13, x ^= x >> 17, x ^= x << 5;
+    return (x + 0.5) / 4294967296.0;
+  };
+  int chunk = 0;
+  for (size_t b = 0; b < band_gain.size(); ++b) {
+    for (int c = 0; c < 40; ++c, ++chunk) {
+      for (int k = 0; k < 400; ++k) {
+        SampleRow r{};
+        r.scored = true;
+        r.chunk = chunk;
+        r.speed_mps = 5.0 * static_cast<double>(b) + 2.5;
+        const double model = 3.0 * std::sin(0.02 * k + c);
+        const double noise = 0.05 * std::sqrt(-2 * std::log(uniform())) * std::cos(2 * M_PI * uniform());
+        r.ay_model = {model};
+        r.ay_mps2 = (1.0 + band_gain[b]) * model + noise;
+        r.yaw_model = {NAN};
+        r.yaw_rate_radps = NAN;
+        rows.push_back(r);
+      }
+    }
+  }
+  return rows;
+}
+
+TEST(GainView, RecoversEachBandsSignedGainAndItsSpeedDependence) {
+  const std::vector<double> gains = {0.0, 0.0, 0.017, 0.0, -0.03, 0.0, -0.084};
+  const GainView v = ComputeGainView(RowsWithGains(gains, 7), 1, false);
+  ASSERT_EQ(v.per_model.size(), 1u);
+  for (size_t b = 0; b < gains.size(); ++b) {
+    const GainBand& g = v.per_model[0][b];
+    ASSERT_TRUE(g.judged) << g.label;
+    EXPECT_NEAR(g.gain, gains[b], 4 * g.se) << g.label;
+    EXPECT_LT(g.se, 0.002) << g.label;
+    EXPECT_EQ(g.flagged, gains[b] != 0.0) << g.label;
+  }
+  EXPECT_TRUE(v.speed_dependent[0]);
+}
+
+TEST(GainView, OneGainAtEverySpeedIsFlaggedButNotSpeedDependent) {
+  const GainView v = ComputeGainView(RowsWithGains(std::vector<double>(6, 0.03), 11), 1, false);
+  for (const GainBand& g : v.per_model[0]) {
+    if (!g.judged) continue;
+    EXPECT_TRUE(g.flagged) << g.label;
+    EXPECT_NEAR(g.gain, 0.03, 4 * g.se) << g.label;
+  }
+  EXPECT_FALSE(v.speed_dependent[0]);
+  EXPECT_EQ(v.dof[0], 5);
 }
 
 }  // namespace

@@ -30,4 +30,8 @@ struct PriorDistance {
 // The distance of `fit` from `priors` (free parameters with a prior only; none: z empty).
 PriorDistance DistanceFromPriors(const std::vector<FittedParameter>& fit, const std::vector<config::ParameterPrior>& priors);
 
+// The chi-square distribution's 0.999 quantile with `dof` degrees of freedom (a table for 1..10,
+// Wilson-Hilferty beyond).
+double Chi2Quantile999(size_t dof);
+
 }  // namespace ndsid::adequacy

@@ -52,6 +52,30 @@ nlohmann::json ModelJson(const FittedModel& m, const FitFigures& train, const Fi
   return j;
 }
 
+// bins.csv (a_y, m/s^2) and yaw_bins.csv (the yaw rate, deg/s): the where-it-fails tables; and
+// gain_bands.csv, the signed view by speed of both outputs.
+void WriteResidualTables(const fs::path& d, const Comparison& c) {
+  const size_t nm = c.models.size();
+  auto write_bins = [&](const std::vector<Bin>& bins, const std::string& unit, const char* file) {
+    std::string csv = "group,label,model,n,clusters,bias_" + unit + ",se_" + unit + ",rmse_" + unit + ",verdict\n";
+    for (const Bin& b : bins)
+      for (size_t m = 0; m < nm; ++m) {
+        const BinStats& s = b.per_model[m];
+        char line[256];
+        std::snprintf(line, sizeof line, "\"%s\",\"%s\",%s,%zu,%d,%.6g,%.6g,%.6g,%s\n", b.group.c_str(), b.label.c_str(),
+                      c.models[m].label.c_str(), s.n, s.clusters, s.bias, std::isfinite(s.se) ? s.se : -1.0, s.rmse,
+                      VerdictText(s.verdict));
+        csv += line;
+      }
+    WriteFileAtomically((d / file).string(), csv);
+  };
+  write_bins(c.bins, "mps2", "bins.csv");
+  if (c.has_yaw_rate) write_bins(c.yaw_bins, "degps", "yaw_bins.csv");
+  WriteFileAtomically((d / "gain_bands.csv").string(),
+                      GainViewCsv(c.gains, c.models, "a_y", true) +
+                          (c.has_yaw_rate ? GainViewCsv(c.yaw_gains, c.models, "yaw_rate", false) : std::string()));
+}
+
 std::string WriteComparison(const std::string& dir, const ReplayedData& data, const Comparison& c) {
   fs::create_directories(dir);
   const fs::path d(dir);
@@ -79,29 +103,17 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
     }
     WriteFileAtomically((d / "compare.csv").string(), csv);
   }
-  // bins.csv (a_y, m/s^2) and yaw_bins.csv (the yaw rate, deg/s): the where-it-fails tables.
-  auto write_bins = [&](const std::vector<Bin>& bins, const std::string& unit, const char* file) {
-    std::string csv = "group,label,model,n,clusters,bias_" + unit + ",se_" + unit + ",rmse_" + unit + ",verdict\n";
-    for (const Bin& b : bins)
-      for (size_t m = 0; m < nm; ++m) {
-        const BinStats& s = b.per_model[m];
-        char line[256];
-        std::snprintf(line, sizeof line, "\"%s\",\"%s\",%s,%zu,%d,%.6g,%.6g,%.6g,%s\n", b.group.c_str(), b.label.c_str(),
-                      c.models[m].label.c_str(), s.n, s.clusters, s.bias, std::isfinite(s.se) ? s.se : -1.0, s.rmse,
-                      VerdictText(s.verdict));
-        csv += line;
-      }
-    WriteFileAtomically((d / file).string(), csv);
-  };
-  write_bins(c.bins, "mps2", "bins.csv");
-  if (c.has_yaw_rate) write_bins(c.yaw_bins, "degps", "yaw_bins.csv");
+  WriteResidualTables(d, c);
   nlohmann::json j;
   j["data"] = data.outcome.name;
   j["wheelbase_m"] = data.config.vehicle.wheelbase_m;
   j["noise_floor_mps2"] = c.noise_floor;
   j["noise_floor_source"] = c.noise_floor_source;
   if (data.truth_noise_mps2) j["truth_lat_accel_noise_mps2"] = *data.truth_noise_mps2;
-  j["rule"] = {{"min_samples", kMinBinSamples}, {"bias_z", kBiasZ}, {"rmse_factor", kRmseFactor}};
+  j["rule"] = {{"min_samples", kMinBinSamples}, {"bias_z", kBiasZ}, {"rmse_factor", kRmseFactor},
+               {"gain_z", kGainZ}, {"gain_min", kGainMin}};
+  j["gain_view"]["a_y"] = nlohmann::json::parse(GainViewJson(c.gains, c.models));
+  if (c.has_yaw_rate) j["gain_view"]["yaw_rate"] = nlohmann::json::parse(GainViewJson(c.yaw_gains, c.models));
   for (size_t m = 0; m < nm; ++m) {
     j["models"].push_back(ModelJson(c.models[m], c.train[m], c.validation[m], c.white_noise[m], c.overall_rmse[m]));
   }
@@ -169,6 +181,7 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
     }
   };
   bins_table(c.bins, "%+.4f");
+  h += "</table>\n" + GainViewHtml(c.gains, c.models, "a<sub>y</sub>") + "<table>";
   if (c.has_yaw_rate) {
     h += "</table>\n<h2>Where it fails: yaw rate</h2>\n<p>Residual e<sub>r</sub> = r<sub>meas</sub> − r<sub>model</sub> in deg/s "
          "(the modelled measured yaw rate, gyro effects included; " +
@@ -179,6 +192,7 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
            (c.yaw_validation[m].n ? Num("%.4f", c.yaw_validation[m].rmse) : std::string("n/a")) + " deg/s" + (m + 1 < nm ? "; " : ".");
     h += "</p>\n<table><tr><th class=l>group</th><th class=l>bin</th>";
     bins_table(c.yaw_bins, "%+.4f");
+    h += "</table>\n" + GainViewHtml(c.yaw_gains, c.models, "yaw-rate") + "<table>";
   }
   h += "</table>\n<h2>Plots</h2>\n";
   if (plots) {
@@ -194,7 +208,8 @@ std::string WriteComparison(const std::string& dir, const ReplayedData& data, co
   } else {
     h += "<p><b>No plots:</b> " + HtmlEscape(why_not) + ". The numbers above do not depend on them.</p>\n";
   }
-  h += "<p>Files: <a href=\"compare.csv\">compare.csv</a>, <a href=\"bins.csv\">bins.csv</a>, " +
+  h += "<p>Files: <a href=\"compare.csv\">compare.csv</a>, <a href=\"bins.csv\">bins.csv</a>, "
+       "<a href=\"gain_bands.csv\">gain_bands.csv</a>, " +
        std::string(c.has_yaw_rate ? "<a href=\"yaw_bins.csv\">yaw_bins.csv</a>, " : "") +
        "<a href=\"summary.json\">summary.json</a></p>\n</body></html>\n";
   WriteFileAtomically((d / "report.html").string(), h);
