@@ -32,6 +32,14 @@ set(CPACK_STRIP_FILES ON)                        # RelWithDebInfo binaries witho
 # the package is built on): libceres3, liblcm1, libyaml-cpp0.7, libspdlog1.10, libfmt9,
 # libsystemd0, zlib1g, libstdc++6, libc6, ...
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+# The arm64 cross build (cmake/toolchain-arm64.cmake): the package's architecture is the target's,
+# not the host's (`dpkg --print-architecture`). dpkg-shlibdeps cannot see the arm64 libraries
+# (they are in the sysroot, which has no dpkg database): scripts/package.sh --arch arm64 gives
+# Depends on cpack's command line, from the binaries' NEEDED entries (scripts/deb_depends.sh).
+if(CMAKE_CROSSCOMPILING AND CMAKE_SYSTEM_PROCESSOR STREQUAL "aarch64")
+  set(CPACK_DEBIAN_PACKAGE_ARCHITECTURE arm64)
+  set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS OFF)
+endif()
 # Not needed by ndsidd: ndsid-lcm-spy (Java, lcm.jar, jchart2d), CAN tools, the Python
 # module's `lcm` (pip install lcm: Debian 12 has no python3-lcm), python3-venv for `ndsid-foxglove --setup`.
 set(CPACK_DEBIAN_PACKAGE_SUGGESTS "liblcm-java, libjchart2d-java, default-jre, liblcm-bin, can-utils, python3, python3-venv")

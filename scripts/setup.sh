@@ -3,6 +3,12 @@
 # and builds ndsid. Idempotent: a second run installs nothing and rebuilds only what changed.
 #
 #   scripts/setup.sh            install + configure + build (build/)
+#   scripts/setup.sh --arch arm64
+#                               the arm64 cross build (docs/install.md, "arm64 (cross build)"):
+#                               the host tools below, the arm64 sysroot (scripts/arm64_sysroot.sh,
+#                               downloads on its first run), configures build-arm64/ with
+#                               cmake/toolchain-arm64.cmake and builds ndsid, ndsidd and the
+#                               tests labelled arm64 (no venv, no Python module, no benchmarks)
 #   NDSID_BUILD_DIR=dir         build somewhere else
 #   NDSID_SKIP_INSTALL=1        only configure + build (no apt, no pip)
 set -euo pipefail
@@ -25,6 +31,21 @@ DEB_PACKAGES=(
   chromium                                 # ReportRendersInHeadlessChromium (the HTML report in a real browser)
   python3 python3-venv python3-pip
 )
+
+# The arm64 cross build's host tools: the cross GCC 12, mmdebstrap for the sysroot, qemu-user
+# to run the arm64 programs and tests, dpkg-dev for dpkg-shlibdeps (the package's Depends).
+ARM64_HOST_PACKAGES=(crossbuild-essential-arm64 mmdebstrap qemu-user-static dpkg-dev)
+
+arch=amd64
+if [[ "${1:-}" == "--arch" ]]; then
+  arch="${2:?--arch needs amd64 or arm64}"
+  shift 2
+fi
+case "$arch" in
+  amd64) ;;
+  arm64) DEB_PACKAGES+=("${ARM64_HOST_PACKAGES[@]}") ;;
+  *) echo "setup.sh: --arch $arch: amd64 or arm64" >&2; exit 2 ;;
+esac
 
 log() { printf '[setup] %s\n' "$*" >&2; }
 
@@ -77,8 +98,25 @@ build() {
   fi
 }
 
+# The cross build: build-arm64/ (NDSID_BUILD_DIR moves it), only what runs on the logger and
+# the arm64 tests (target ndsid_arm64_tests, tests/CMakeLists.txt). Two jobs at most and niced:
+# about 40 min on 2 free cores with an empty compiler cache.
+build_arm64() {
+  local dir="${NDSID_BUILD_DIR:-$here/build-arm64}"
+  "$here/scripts/arm64_sysroot.sh" >/dev/null
+  if [[ ! -f "$dir/build.ninja" ]]; then
+    local launcher=()
+    if command -v ccache >/dev/null; then
+      launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+    fi
+    cmake -S "$here" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+      -DCMAKE_TOOLCHAIN_FILE="$here/cmake/toolchain-arm64.cmake" -DNDSID_BUILD_BENCH=OFF "${launcher[@]}" >&2
+  fi
+  nice -n 10 cmake --build "$dir" -j "${NDSID_JOBS:-2}" --target ndsid ndsidd ndsid_arm64_tests >&2
+}
+
 if [[ "${NDSID_SKIP_INSTALL:-0}" != 1 ]]; then
   install_debian_packages
-  install_python_venv
+  if [[ "$arch" == amd64 ]]; then install_python_venv; fi
 fi
-build
+if [[ "$arch" == arm64 ]]; then build_arm64; else build; fi
