@@ -117,7 +117,45 @@ Check Halves(const FitFacts& f, const config::PlausibilityConfig& q) {
   return c;
 }
 
+Check ModelChoice(const FitFacts& f, const config::PlausibilityConfig& q) {
+  Check c{.name = "model_choice"};
+  const ModelChoiceFacts& m = *f.model_choice;
+  std::string each;
+  for (const AlternativeFacts& a : m.alternatives) {
+    each += Fmt("%s%s %+.2f %%: ", each.empty() ? "" : "; ", a.name.c_str(), 100 * a.scale);
+    each += a.ruled_out ? "ruled out (" + a.ruled_out_why + ")" : Fmt("EG %.3f +- %.3f", a.eg_deg_per_g, a.eg_se_deg_per_g);
+  }
+  for (const std::string& n : m.notes) each += (each.empty() ? "" : "; ") + n;
+  const double spread = ModelChoiceSpread(f.eg_deg_per_g, m);
+  const double widened = WidenedSigma(m.eg_se_published_deg_per_g, spread);
+  const double scale = std::max(std::abs(f.eg_deg_per_g), q.eg_se_floor_deg_per_g);
+  c.value = spread / scale;
+  c.verdict = c.value <= q.model_choice_spread_rel_max ? Verdict::kPassed : Verdict::kFailed;
+  c.message = Fmt("a_y against v*r gain %.4f +- %.4f: refitted with the disagreement in each sensor (%s): EG spread %.3f deg/g "
+                  "= %.1f %% of |EG| (accepted <= %.0f %%), sigma(EG) widened %.3f -> %.3f deg/g",
+                  m.gain, m.gain_se, each.c_str(), spread, 100 * c.value, 100 * q.model_choice_spread_rel_max,
+                  m.eg_se_published_deg_per_g, widened);
+  if (c.verdict == Verdict::kFailed)
+    c.message += ": EG depends on which sensor's scale is off, and the bus does not say (a second yaw or speed reference "
+                 "decides it)";
+  return c;
+}
+
 }  // namespace
+
+double ModelChoiceSpread(double eg_deg_per_g, const ModelChoiceFacts& m) {
+  double lo = eg_deg_per_g, hi = eg_deg_per_g;
+  for (const AlternativeFacts& a : m.alternatives) {
+    if (a.ruled_out) continue;
+    lo = std::min(lo, a.eg_deg_per_g);
+    hi = std::max(hi, a.eg_deg_per_g);
+  }
+  return hi - lo;
+}
+
+double WidenedSigma(double eg_se_deg_per_g, double spread_deg_per_g) {
+  return std::hypot(eg_se_deg_per_g, spread_deg_per_g);
+}
 
 double FloorFromSums(double s0, double s1, double n) {
   if (!(n > 0)) return -1;
@@ -130,6 +168,7 @@ void CheckFit(const FitFacts& f, const config::PlausibilityConfig& q, Plausibili
   report.checks.push_back(Bounds(f, q));
   report.checks.push_back(SteadyState(f, q));
   report.checks.push_back(Halves(f, q));
+  if (f.model_choice) report.checks.push_back(ModelChoice(f, q));
 }
 
 }  // namespace ndsid::adequacy

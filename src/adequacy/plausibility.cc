@@ -106,6 +106,7 @@ void DataChecks(const DriveSums& d, const config::PlausibilityConfig& q, std::ve
   if (k.informative_s >= q.min_informative_s) {
     const double g = d.kinematic.gain(), rho = d.kinematic.correlation(), se = d.kinematic.gain_se();
     k.value = g;
+    k.value_se = se;
     const bool ok = g >= q.kinematic_gain_min && g <= q.kinematic_gain_max && rho >= q.kinematic_correlation_min;
     k.verdict = ok ? Verdict::kPassed : Verdict::kFailed;
     k.message = Fmt("a_y against v*r in quasi-steady turning: gain %.3f +- %.3f (physically 1, accepted %.2f..%.2f), correlation %.3f",

@@ -215,6 +215,7 @@ void ReadPlausibility(const YamlReader& p, PlausibilityConfig& q) {
   q.steady_state_z_max = Ranged(p, "steady_state_z_max", q.steady_state_z_max, 0.1, 1000);
   q.steady_state_rel_bias = Ranged(p, "steady_state_rel_bias", q.steady_state_rel_bias, 0, 10);
   q.halves_z_max = Ranged(p, "halves_z_max", q.halves_z_max, 0.1, 1000);
+  q.model_choice_spread_rel_max = Ranged(p, "model_choice_spread_rel_max", q.model_choice_spread_rel_max, 0, 100);
   p.Finish();
 }
 

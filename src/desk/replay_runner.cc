@@ -54,7 +54,7 @@ ReplayOutcome RunReplay(pipeline::Pipeline& pipeline, const config::Config& conf
     identify::IdentificationResult fit = pending->result.get();
     out.periodic_fit_wait_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_wait).count();
     out.periodic_fit_wall_s += pending->fit_s->load();
-    const pipeline::Estimate& e = pipeline.Accept(*pending->snap, std::move(fit), &pending->data_checks);
+    const pipeline::Estimate& e = pipeline.Accept(*pending->snap, std::move(fit), &pending->data_checks, pending->choice.get());
     pending.reset();
     progress.Done();  // the log line on a line of its own
     spdlog::info("{:.2f} gated h: EG {:.3f} ± {:.3f} deg/g, {}", e.gated_hours, e.fit.eg_deg_per_g, e.fit.eg_se_deg_per_g,

@@ -46,6 +46,8 @@ ParameterBox ParameterBox::Make(const config::IdentificationConfig& config, cons
       } else {
         box.bounds[i] = {e->lower, e->upper, e->initial, false};
       }
+      for (const auto& [name, value] : config.fixed_effect_params)
+        if (name == e->name) box.bounds[i] = {e->lower, e->upper, std::clamp(value, e->lower, e->upper), true};
       box.scale[i] = 0.5 * (e->upper - e->lower);
     }
   }

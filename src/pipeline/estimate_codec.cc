@@ -38,6 +38,34 @@ adequacy::Check CheckFromJson(const JsonIn& in) {
   return c;
 }
 
+// The model-choice refits (pipeline/model_choice.h); only written when they were made.
+nlohmann::json ModelChoiceJson(const ModelChoice& m) {
+  nlohmann::json alts = nlohmann::json::array();
+  for (const ModelAlternative& a : m.alternatives)
+    alts.push_back({{"name", a.name}, {"scale", a.scale}, {"fitted", a.fitted}, {"reason", a.reason},
+                    {"eg_deg_per_g", a.eg_deg_per_g}, {"eg_se_deg_per_g", a.eg_se_deg_per_g},
+                    {"rmse_a_y_mps2", a.rmse_a_y_mps2}, {"rmse_yaw_degps", a.rmse_yaw_degps},
+                    {"ruled_out", a.ruled_out}, {"ruled_out_why", a.ruled_out_why}});
+  return {{"kinematic_gain", m.gain}, {"kinematic_gain_se", m.gain_se}, {"alternatives", alts}, {"notes", m.notes},
+          {"seconds", m.seconds}};
+}
+
+ModelChoice ModelChoiceFromJson(const JsonIn& in) {
+  ModelChoice m{.judged = true, .gain = in.Number("kinematic_gain"), .gain_se = in.Number("kinematic_gain_se")};
+  const JsonIn alts = in.At("alternatives");
+  for (size_t i = 0, n = alts.Size(16); i < n; ++i) {
+    const JsonIn a = alts.At(i);
+    m.alternatives.push_back({.name = a.String("name"), .scale = a.Number("scale"), .fitted = a.Bool("fitted"),
+                              .reason = a.String("reason"), .eg_deg_per_g = a.Number("eg_deg_per_g"),
+                              .eg_se_deg_per_g = a.Number("eg_se_deg_per_g"), .rmse_a_y_mps2 = a.Number("rmse_a_y_mps2"),
+                              .rmse_yaw_degps = a.Number("rmse_yaw_degps"), .ruled_out = a.Bool("ruled_out"),
+                              .ruled_out_why = a.String("ruled_out_why")});
+  }
+  m.notes = in.At("notes").Strings(16);
+  m.seconds = in.Number("seconds");
+  return m;
+}
+
 std::vector<adequacy::Check> ChecksFromJson(const JsonIn& in) {
   std::vector<adequacy::Check> out;
   for (size_t i = 0, n = in.Size(1024); i < n; ++i) out.push_back(CheckFromJson(in.At(i)));
@@ -73,6 +101,7 @@ nlohmann::json EstimateToJson(const Estimate& e) {
     if (!failed.empty()) pj["failed_drives"].push_back({{"drive", d.drive_id}, {"t0_ns", d.t0_ns}, {"checks", failed}});
   }
   j["plausibility"] = std::move(pj);
+  if (e.model_choice.judged) j["model_choice"] = ModelChoiceJson(e.model_choice);
   nlohmann::json ev = nlohmann::json::array();
   for (const auto& sp : e.standstill)
     ev.push_back({{"param", sp.param}, {"mean", sp.value}, {"se", sp.sd}, {"stops", sp.stops}, {"seconds", sp.seconds}});
@@ -124,6 +153,7 @@ Estimate EstimateFromJson(const JsonIn& in) {
     const JsonIn x = ev.At(i);
     e.standstill.push_back({x.String("param"), x.Number("mean"), x.Number("se"), Count(x, "stops"), x.Number("seconds")});
   }
+  if (in.Has("model_choice")) e.model_choice = ModelChoiceFromJson(in.At("model_choice"));
   return e;
 }
 

@@ -26,7 +26,16 @@ std::pair<double, double> Spreads(const WindowSnapshot& snap) {
 
 }  // namespace
 
-adequacy::FitFacts FitFactsOf(const identify::IdentificationResult& fit, const WindowSnapshot& snap) {
+adequacy::ModelChoiceFacts ModelChoiceFactsOf(const ModelChoice& choice, double eg_se_published_deg_per_g) {
+  adequacy::ModelChoiceFacts m{.gain = choice.gain, .gain_se = choice.gain_se, .eg_se_published_deg_per_g = eg_se_published_deg_per_g};
+  for (const ModelAlternative& a : choice.alternatives)
+    m.alternatives.push_back({.name = a.name, .scale = a.scale, .eg_deg_per_g = a.eg_deg_per_g,
+                              .eg_se_deg_per_g = a.eg_se_deg_per_g, .ruled_out = a.ruled_out, .ruled_out_why = a.ruled_out_why});
+  m.notes = choice.notes;
+  return m;
+}
+
+adequacy::FitFacts FitFactsOf(const identify::IdentificationResult& fit, const WindowSnapshot& snap, const ModelChoice* choice) {
   adequacy::FitFacts f;
   f.termination = fit.termination;
   f.iterations = fit.iterations + fit.coarse_iterations;
@@ -65,6 +74,7 @@ adequacy::FitFacts FitFactsOf(const identify::IdentificationResult& fit, const W
   for (const stats::Segment* seg : snap.training)
     if (seg) drives.insert(seg->drive_id);
   f.window_drives = static_cast<int>(drives.size());
+  if (choice && choice->judged) f.model_choice = ModelChoiceFactsOf(*choice, fit.eg_se_deg_per_g);
   return f;
 }
 

@@ -8,6 +8,10 @@
 
 namespace ndsid::pipeline {
 
-adequacy::FitFacts FitFactsOf(const identify::IdentificationResult& fit, const WindowSnapshot& snap);
+// choice: the model-choice refits (none or not judged: FitFacts::model_choice stays empty).
+adequacy::FitFacts FitFactsOf(const identify::IdentificationResult& fit, const WindowSnapshot& snap,
+                              const ModelChoice* choice = nullptr);
+// The model-choice refits as the checks read them.
+adequacy::ModelChoiceFacts ModelChoiceFactsOf(const ModelChoice& choice, double eg_se_published_deg_per_g);
 
 }  // namespace ndsid::pipeline

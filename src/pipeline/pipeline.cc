@@ -18,6 +18,13 @@ namespace ndsid::pipeline {
 namespace {
 // Below this the wheel speeds' quantisation and the speed signal's dead band dominate.
 constexpr double kWheelCheckMinSpeed_mps = 2.0;
+
+// The published sigma(EG) widened to cover the model choice's spread (adequacy::WidenedSigma).
+void WidenSigma(double spread_deg_per_g, identify::IdentificationResult& fit) {
+  const double widened = adequacy::WidenedSigma(fit.eg_se_deg_per_g, spread_deg_per_g);
+  fit.eg_se_rad_per_mps2 = widened / model::EgToDegPerG(1.0);
+  fit.eg_se_deg_per_g = widened;
+}
 }  // namespace
 
 Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
@@ -230,14 +237,16 @@ FitJob Pipeline::StartFit(std::shared_ptr<const WindowSnapshot> snap) const {
   FitJob job;
   job.snap = std::move(snap);
   job.fit_s = std::make_shared<std::atomic<double>>(0.0);
+  job.choice = std::make_shared<ModelChoice>();
+  job.data_checks = CheckData(*job.snap);  // on this thread; the worker reads the kinematic gain
   job.result = std::async(std::launch::async, [snap = job.snap, identifier = identifier_, warm = WarmStart(), prior = Prior(),
-                                               exact = ExactDue(), fit_s = job.fit_s] {
+                                               exact = ExactDue(), fit_s = job.fit_s, checks = job.data_checks, choice = job.choice] {
     const auto t0 = std::chrono::steady_clock::now();
     identify::IdentificationResult r = Fit(identifier, *snap, warm, prior, exact);
+    *choice = FitModelAlternatives(identifier, *snap, r, checks);
     fit_s->store(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return r;
   });
-  job.data_checks = CheckData(*job.snap);  // on this thread, beside the fit
   return job;
 }
 
@@ -250,7 +259,7 @@ adequacy::PlausibilityReport Pipeline::CheckData(const WindowSnapshot& snap) con
 }
 
 const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit,
-                                 const adequacy::PlausibilityReport* data_checks) {
+                                 const adequacy::PlausibilityReport* data_checks, const ModelChoice* choice) {
   last_fit_data_ns_ = snap.data_time_ns;
   last_fit_gated_hours_ = snap.gated_hours;
   Estimate e;
@@ -272,7 +281,10 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   // Plausibility (docs/monitoring.md): a fit of data that break the kinematics, or an EG that is
   // unphysical or undetermined, is published as not valid, with the checks' words as reason.
   e.plausibility = data_checks ? *data_checks : CheckData(snap);
+  if (choice) e.model_choice = *choice;
   if (e.fit.valid) {
+    const adequacy::FitFacts fit_facts = FitFactsOf(e.fit, snap, &e.model_choice);
+    if (fit_facts.model_choice) WidenSigma(adequacy::ModelChoiceSpread(e.fit.eg_deg_per_g, *fit_facts.model_choice), e.fit);
     adequacy::EstimateFacts facts;
     facts.steer_ratio = snap.steady_state.valid ? snap.steady_state.steer_ratio : 0;
     facts.eg_deg_per_g = e.fit.eg_deg_per_g;
@@ -283,7 +295,7 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
       facts.free_params_at_bound += p.at_bound ? 1 : 0;
     }
     adequacy::CheckEstimate(facts, config_.plausibility, e.plausibility);
-    adequacy::CheckFit(FitFactsOf(e.fit, snap), config_.plausibility, e.plausibility);
+    adequacy::CheckFit(fit_facts, config_.plausibility, e.plausibility);
     for (const auto& d : e.plausibility.drives) {  // each failing drive once
       for (const auto& c : d.checks) {
         if (c.verdict == adequacy::Verdict::kFailed && implausible_drives_reported_.insert(d.drive_id).second) {
@@ -324,9 +336,11 @@ const Estimate& Pipeline::IdentifyNow(bool final) {
   const auto t0 = std::chrono::steady_clock::now();
   const WindowSnapshot snap = Snapshot();
   const auto t1 = std::chrono::steady_clock::now();
+  const adequacy::PlausibilityReport checks = CheckData(snap);
   identify::IdentificationResult fit = Fit(identifier_, snap, WarmStart(), Prior(), final || ExactDue());
+  const ModelChoice choice = FitModelAlternatives(identifier_, snap, fit, checks);
   const auto t2 = std::chrono::steady_clock::now();
-  const Estimate& e = Accept(snap, std::move(fit));
+  const Estimate& e = Accept(snap, std::move(fit), &checks, &choice);
   const auto t3 = std::chrono::steady_clock::now();
   using S = std::chrono::duration<double>;
   spdlog::debug("identification times: snapshot {:.3f} s, fit {:.3f} s, checks {:.3f} s", S(t1 - t0).count(), S(t2 - t1).count(),

@@ -56,7 +56,7 @@ void Daemon::Impl::AcceptJob() {
     fit.valid = false;
     fit.reason = std::string("identification failed: ") + e.what();
   }
-  const pipeline::Estimate& e = pipe().Accept(*j.fit.snap, std::move(fit), &j.fit.data_checks);
+  const pipeline::Estimate& e = pipe().Accept(*j.fit.snap, std::move(fit), &j.fit.data_checks, j.fit.choice.get());
   ++identifications;
   if (e.fit.valid) {
     spdlog::info("identification {}: EG {:.4e} rad/(m/s^2) = {:.3f} deg/g (sigma {:.2e}), RMSE {:.3f}/{:.3f} m/s^2, "

@@ -12,6 +12,9 @@
 //                 sigma and the regression's known bias
 //   halves        the EGs of two disjoint halves of the window (alternate drives) within their
 //                 combined sigma
+//   model_choice  where a_y and v r disagree in scale, EG's spread over the attributions of the
+//                 disagreement to each sensor (pipeline/model_choice.h) against |EG|; the
+//                 published sigma(EG) is widened to cover it (WidenedSigma)
 // Each check is a Check of the estimate's PlausibilityReport, with its numbers in words, passed,
 // failed or skipped (too little data to judge).
 #pragma once
@@ -51,6 +54,22 @@ struct HalfFacts {
   int drives = 0;
 };
 
+// One attribution of a kinematic scale disagreement to a sensor, refitted with its scale free.
+struct AlternativeFacts {
+  std::string name;          // accel_scale | gyro_scale | speed_scale
+  double scale = 0;          // the scale the refit ended on
+  double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
+  bool ruled_out = false;    // the data contradict it (its held-out RMSE), why in ruled_out_why
+  std::string ruled_out_why;
+};
+
+struct ModelChoiceFacts {
+  double gain = 0, gain_se = 0;  // a_y / (v r) in quasi-steady turning
+  double eg_se_published_deg_per_g = 0;  // sigma(EG) as published before the widening
+  std::vector<AlternativeFacts> alternatives;
+  std::vector<std::string> notes;  // attributions left out, and why
+};
+
 struct FitFacts {
   std::string termination;       // the solver's termination type (CONVERGENCE, NO_CONVERGENCE, ...)
   int iterations = 0;
@@ -62,9 +81,17 @@ struct FitFacts {
   double steady_state_eg_deg_per_g = 0, steady_state_eg_se_deg_per_g = 0;
   std::optional<std::pair<HalfFacts, HalfFacts>> halves;  // none: not fitted (too few drives)
   int window_drives = 0;
+  std::optional<ModelChoiceFacts> model_choice;  // none: not judged (a_y and v r agree in scale)
 };
 
-// The five checks, appended to report.checks in the order above (one "explained" check per output).
+// EG's spread over the published EG and the alternatives not ruled out [deg/g] (max - min; 0
+// without alternatives), and sigma(EG) widened to cover it: sqrt(sigma^2 + spread^2) (an
+// alternative the data do not rule out lies within one widened sigma of the published EG).
+double ModelChoiceSpread(double eg_deg_per_g, const ModelChoiceFacts& m);
+double WidenedSigma(double eg_se_deg_per_g, double spread_deg_per_g);
+
+// The checks, appended to report.checks in the order above (one "explained" check per output;
+// model_choice only when judged).
 void CheckFit(const FitFacts& facts, const config::PlausibilityConfig& limits, PlausibilityReport& report);
 
 // The floor of a residual series from its sums: sum e_k^2 (s0), sum e_k e_k-1 (s1) over n pairs:

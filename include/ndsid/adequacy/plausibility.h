@@ -30,6 +30,7 @@ struct Check {
   double value = 0;     // gain, correlation, ratio, EG [deg/g], sigma/|EG|
   double informative_s = 0;
   std::string message;  // the numbers and the likely cause, in words
+  double value_se = 0;  // the value's standard error where the check has one (kinematics' gain), else 0
 };
 
 // One drive's data checks (kinematics, steering sign).

@@ -146,6 +146,10 @@ struct IdentificationConfig {
   bool incremental = true;
   double relinearize_sigma = 5.0;
   int full_refit_every = 36;
+  // Effect parameters held at a value instead of fitted (name -> value, clamped to the effect's
+  // box). Not read from the YAML: the model-choice refits (pipeline/model_choice.h) attribute a
+  // kinematic scale disagreement to one sensor by fixing its scale.
+  std::vector<std::pair<std::string, double>> fixed_effect_params;
 };
 
 struct AdequacyConfig {
@@ -179,6 +183,7 @@ struct PlausibilityConfig {
   double steady_state_z_max = 3;         // |dynamic EG - steady-state EG| / combined sigma
   double steady_state_rel_bias = 0.1;    // the steady-state regression's bias allowance, share of |EG|
   double halves_z_max = 3;               // |EG(half 1) - EG(half 2)| / combined sigma
+  double model_choice_spread_rel_max = 0.25;  // EG's spread over the sensor-scale attributions / |EG|
 };
 
 struct LcmConfig {

@@ -13,7 +13,9 @@ namespace ndsid::pipeline {
 
 // The fit's fields (identify::ResultToJson) at the top level, then gated_hours, window_hours,
 // data_time_ns, training_segments, validation_segments, steady_state, adequacy, plausibility
-// (its checks and the drives that failed one) and standstill (stops, seconds, evidence).
+// (its checks and the drives that failed one), standstill (stops, seconds, evidence) and, where
+// the alternatives were refitted, model_choice (the kinematic gain, each alternative's name,
+// fitted scale, EG, sigma, held-out RMSEs and whether the data rule it out; notes; seconds).
 nlohmann::json EstimateToJson(const Estimate& e);
 // Throws CodecError naming the path. The plausibility report comes back with its checks and
 // its failed drives (the drives that passed are only counted in the document).

@@ -23,6 +23,7 @@
 #include "ndsid/gate/gate.h"
 #include "ndsid/identify/identifier.h"
 #include "ndsid/model/effect_library.h"
+#include "ndsid/pipeline/model_choice.h"
 #include "ndsid/stats/accumulator.h"
 #include "ndsid/sync/role_extractor.h"
 #include "ndsid/sync/signal_sync.h"
@@ -46,6 +47,9 @@ struct Estimate {
   size_t standstill_stops = 0;
   double standstill_seconds = 0;
   std::vector<identify::Identifier::StandstillPrior> standstill;
+  // The refits with a kinematic scale disagreement attributed to each sensor (model_choice.h);
+  // not judged (empty) when a_y and v r agree in scale.
+  ModelChoice model_choice;
 };
 
 // The window split into training and held-out drives (every k-th drive validates, k from
@@ -69,7 +73,10 @@ struct FitJob {
   std::shared_ptr<const WindowSnapshot> snap;
   std::future<identify::IdentificationResult> result;  // get() waits for the fit and rethrows its error
   std::shared_ptr<std::atomic<double>> fit_s;          // the fit's own time [s], set by the worker when it ends
-  adequacy::PlausibilityReport data_checks;            // CheckData(*snap), made on the starting thread meanwhile
+  adequacy::PlausibilityReport data_checks;            // CheckData(*snap), made on the starting thread before the fit
+  // The model-choice refits (FitModelAlternatives), made by the worker after the fit: ready when
+  // result is.
+  std::shared_ptr<ModelChoice> choice;
 };
 
 class Pipeline {
@@ -97,14 +104,16 @@ class Pipeline {
   // (reading-thread side).
   // data_checks: CheckData(snap) computed beforehand (e.g. on the reading thread while the fit
   // ran); else computed here.
+  // choice: the model-choice refits made with the fit (FitModelAlternatives); none: not judged.
   const Estimate& Accept(const WindowSnapshot& snap, identify::IdentificationResult fit,
-                         const adequacy::PlausibilityReport* data_checks = nullptr);
+                         const adequacy::PlausibilityReport* data_checks = nullptr, const ModelChoice* choice = nullptr);
   // The plausibility checks of a snapshot's data (kinematics, steering sign, wheel speeds): the
   // part of Accept's checks that does not depend on the fit. Touches no pipeline state.
   adequacy::PlausibilityReport CheckData(const WindowSnapshot& snap) const;
   // Starts the due fit on a worker thread: a snapshot, then Fit on copies of everything it touches
   // (snapshot, identifier, warm start, the exact-update schedule) and the shared, immutable prior,
-  // while the snapshot's data checks are made on the calling thread. The job touches no pipeline
+  // after the snapshot's data checks are made on the calling thread (the worker reads their
+  // kinematic gain for the model-choice refits). The job touches no pipeline
   // state; accept it before the next one starts (its result is the next one's warm start and prior).
   FitJob StartFit() const;
   // The same on a snapshot taken earlier (a replay that read on while the last fit ran): its fit

@@ -1,0 +1,65 @@
+// Model choice (docs/monitoring.md, "model_choice"): when the window's a_y and v r disagree in
+// scale (the kinematics check's model-free gain g of a_y on v r in quasi-steady turning differs
+// from 1 by more than kSignificanceZ standard errors and kMinScaleDisagreement), the data alone do
+// not say which sensor is off, and each attribution gives its own EG. The window is refitted with
+// the disagreement attributed to each sensor in turn: its scale effect added to the model, free,
+// started at the value g gives (the model-free gain is biased by beta' and the selection of
+// samples, so the fit, which models both, estimates the scale):
+//   accel_scale  a_meas = (1 + k_a) a_y,  k_a = g - 1 at the start
+//   gyro_scale   r_meas = (1 + k_r) r,    k_r = 1/g - 1
+//   speed_scale  v_meas = (1 + eps) v,    eps = 1/g - 1 (left out where a_x against dv/dt
+//                decides the speed scale: determined, consistent with 0 and excluding eps)
+// An alternative whose held-out RMSE of some output exceeds the published fit's by more than
+// kRuledOutRmseRatio is ruled out by the data. The checks of the fit (adequacy::ModelChoiceSpread)
+// widen sigma(EG) by the spread of the rest. Only fits with the yaw rate as an output are judged
+// (with a_y alone the scales are absorbed into is and EG: physics.md §4).
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ndsid/adequacy/plausibility.h"
+#include "ndsid/identify/identifier.h"
+
+namespace ndsid::pipeline {
+
+struct WindowSnapshot;
+
+// One attribution of the scale disagreement, refitted on the window.
+struct ModelAlternative {
+  std::string name;          // the effect the disagreement is attributed to: accel_scale | gyro_scale | speed_scale
+  double scale = 0;          // its fitted value (the attribution from the gain when not fitted)
+  bool fitted = false;       // false: the refit failed (reason)
+  std::string reason;        // why not fitted
+  double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
+  double rmse_a_y_mps2 = -1;     // held-out (training where nothing is held out); -1: unknown
+  double rmse_yaw_degps = -1;
+  bool ruled_out = false;    // a held-out RMSE clearly worse than the published fit's (or not fitted)
+  std::string ruled_out_why;
+};
+
+struct ModelChoice {
+  bool judged = false;       // the disagreement was significant and the alternatives were refitted
+  double gain = 0, gain_se = 0;  // the kinematics check's a_y / (v r)
+  std::vector<ModelAlternative> alternatives;
+  std::vector<std::string> notes;  // alternatives left out and why (e.g. the speed scale decided by a_x)
+  double seconds = 0;        // the refits' wall time
+};
+
+// The rules above, as constants (docs/monitoring.md states them).
+inline constexpr double kSignificanceZ = 3.0;            // |g - 1| / se(g)
+inline constexpr double kMinScaleDisagreement = 0.005;   // |g - 1|: below, beta' and noise
+inline constexpr double kRuledOutRmseRatio = 1.02;       // alternative's held-out RMSE / the fit's
+
+// Whether the window's kinematics check shows a significant scale disagreement for a fit with
+// the yaw rate as an output (the gain and its se from `data_checks`' window-level kinematics).
+bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
+                       double* gain = nullptr, double* gain_se = nullptr);
+
+// Refits the snapshot once per attribution (nothing when ScaleDisagreement is false). Runs on the
+// fit's thread; touches no pipeline state.
+ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const WindowSnapshot& snap,
+                                 const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks);
+
+}  // namespace ndsid::pipeline

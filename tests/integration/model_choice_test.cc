@@ -1,0 +1,94 @@
+// Model choice end to end (docs/monitoring.md, "model_choice"): simulated drives whose
+// accelerometer or gyro reads a few percent off. The two-output fit alone splits the scale
+// disagreement between a_y and the yaw rate and gives an EG with a sigma far smaller than the
+// spread over the sensor it could blame; the pipeline refits the window with the disagreement
+// attributed to each sensor, widens the published sigma to cover the spread (or fails
+// model_choice), and lists the alternatives. Clean drives: nothing refitted, no check added.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+
+#include "sim_harness.h"
+
+namespace ndsid::testing {
+namespace {
+
+const adequacy::Check* Find(const pipeline::Estimate& e, const std::string& name) {
+  for (const adequacy::Check& c : e.plausibility.checks)
+    if (c.name == name) return &c;
+  return nullptr;
+}
+
+const pipeline::ModelAlternative* Alternative(const pipeline::Estimate& e, const std::string& name) {
+  for (const pipeline::ModelAlternative& a : e.model_choice.alternatives)
+    if (a.name == name) return &a;
+  return nullptr;
+}
+
+std::string Checks(const pipeline::Estimate& e) {
+  std::string out;
+  for (const adequacy::Check& c : e.plausibility.checks)
+    out += c.name + " " + adequacy::VerdictName(c.verdict) + ": " + c.message + "\n";
+  return out;
+}
+
+constexpr double kHours = 0.5;
+const ReplayTweaks kTwoOutputs{.identify_every_s = 0, .mass_schedule_kg = {}, .yaw_rate_output = true};
+
+// The published estimate with a hidden sensor scale: either valid with sigma covering the truth,
+// or not valid because model_choice failed; the attribution to the scaled sensor near the truth.
+void ExpectCovered(const std::string& effect, const std::string& scaled, uint64_t seed) {
+  SimulatedRun run = SimulateAndReplay("model_choice_" + scaled + std::to_string(seed), seed, kHours, {effect},
+                                       {"road_bank", "gyro_offset"}, kTwoOutputs);
+  const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
+  const double truth = model::EgToDegPerG(run.eg_truth);
+  ASSERT_TRUE(e.model_choice.judged) << effect << " " << seed << "\n" << Checks(e);
+  const adequacy::Check* c = Find(e, "model_choice");
+  ASSERT_NE(c, nullptr) << Checks(e);
+  std::printf("%s seed %llu: EG %.3f +- %.3f deg/g (truth %.3f), %s; %s\n", effect.c_str(), static_cast<unsigned long long>(seed),
+              e.fit.eg_deg_per_g, e.fit.eg_se_deg_per_g, truth, e.fit.valid ? "valid" : "not valid", c->message.c_str());
+  if (e.fit.valid) {
+    EXPECT_LE(std::abs(e.fit.eg_deg_per_g - truth), 2 * e.fit.eg_se_deg_per_g) << effect << " " << seed << "\n" << c->message;
+  } else {
+    EXPECT_EQ(c->verdict, adequacy::Verdict::kFailed) << e.fit.reason;
+  }
+  const pipeline::ModelAlternative* a = Alternative(e, scaled);
+  ASSERT_NE(a, nullptr) << c->message;
+  ASSERT_TRUE(a->fitted) << a->reason;
+  EXPECT_FALSE(a->ruled_out) << a->ruled_out_why;
+  EXPECT_LT(std::abs(a->eg_deg_per_g / truth - 1), 0.01) << effect << " " << seed << ": " << c->message;
+  // The bus has a_x: the speed scale is decided (consistent with 0), not an alternative.
+  EXPECT_EQ(Alternative(e, "speed_scale"), nullptr) << c->message;
+}
+
+// Catches: an accelerometer scale error published with a sigma that excludes the truth.
+TEST(ModelChoice, AnAccelerometerScaleIsCoveredBySigma) {
+  for (uint64_t seed : {301, 302}) ExpectCovered("accel_scale_pct=3", "accel_scale", seed);
+  for (uint64_t seed : {303, 304}) ExpectCovered("accel_scale_pct=-3", "accel_scale", seed);
+}
+
+// Catches: a gyro scale error refitted but published with a sigma that excludes the truth. The
+// model-free gain reads about +1.4 % on clean simulated drives (the bundled clean set: 1.014 +-
+// 0.005), which offsets a +3 % gyro scale towards 1: on seeds 305 and 309 it is not significant
+// and nothing is refitted (the trigger's known limit, docs/monitoring.md); seed 306 is refitted.
+TEST(ModelChoice, AGyroScaleIsCoveredBySigmaWhereRefitted) {
+  ExpectCovered("gyro_scale_pct=3", "gyro_scale", 306);
+}
+
+// Catches: refits (and a changed sigma) on clean data, where a_y and v r agree in scale.
+TEST(ModelChoice, CleanDataAreNotRefitted) {
+  for (uint64_t seed : {307, 308}) {
+    SimulatedRun run = SimulateAndReplay("model_choice_clean_" + std::to_string(seed), seed, kHours, {},
+                                         {"road_bank", "gyro_offset"}, kTwoOutputs);
+    const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
+    ASSERT_TRUE(e.fit.valid) << e.fit.reason << "\n" << Checks(e);
+    EXPECT_FALSE(e.model_choice.judged) << Find(e, "kinematics")->message;
+    EXPECT_TRUE(e.model_choice.alternatives.empty());
+    EXPECT_EQ(Find(e, "model_choice"), nullptr);
+    EXPECT_FALSE(pipeline::ScaleDisagreement(e.fit, e.plausibility));
+  }
+}
+
+}  // namespace
+}  // namespace ndsid::testing
