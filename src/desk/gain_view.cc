@@ -13,6 +13,7 @@
 
 #include "model_report.h"
 #include "ndsid/adequacy/prior_check.h"
+#include "ndsid/common/format.h"
 
 namespace ndsid::desk {
 namespace {
@@ -26,10 +27,8 @@ int BandOf(double v) {
 }
 
 std::string BandLabel(int b) {
-  char s[32];
-  if (b == kBands - 1) std::snprintf(s, sizeof s, ">%g", b * kBandWidth_mps);
-  else std::snprintf(s, sizeof s, "%g-%g", b * kBandWidth_mps, (b + 1) * kBandWidth_mps);
-  return s;
+  if (b == kBands - 1) return Fmt(">%g", b * kBandWidth_mps);
+  return Fmt("%g-%g", b * kBandWidth_mps, (b + 1) * kBandWidth_mps);
 }
 
 // One band's samples: (modelled output, residual, chunk).
@@ -140,12 +139,10 @@ void PrintGainView(const GainView& view, const std::vector<FittedModel>& models,
 
 std::string GainViewCsv(const GainView& view, const std::vector<FittedModel>& models, const char* output, bool header) {
   std::string csv = header ? "output,band_mps,model,n,clusters,gain,se,judged,flagged\n" : "";
-  char line[200];
   for (size_t m = 0; m < view.per_model.size() && m < models.size(); ++m) {
     for (const GainBand& g : view.per_model[m]) {
-      std::snprintf(line, sizeof line, "%s,%s,%s,%zu,%d,%.6g,%.6g,%d,%d\n", output, g.label.c_str(),
-                    models[m].label.c_str(), g.n, g.clusters, g.gain, g.se, g.judged ? 1 : 0, g.flagged ? 1 : 0);
-      csv += line;
+      csv += Fmt("%s,%s,%s,%zu,%d,%.6g,%.6g,%d,%d\n", output, g.label.c_str(), models[m].label.c_str(), g.n, g.clusters,
+                 g.gain, g.se, g.judged ? 1 : 0, g.flagged ? 1 : 0);
     }
   }
   return csv;
@@ -168,15 +165,10 @@ std::string GainViewJson(const GainView& view, const std::vector<FittedModel>& m
 }
 
 std::string GainViewHtml(const GainView& view, const std::vector<FittedModel>& models, const char* output) {
-  auto num = [](const char* fmt, double x) {
-    char b[48];
-    std::snprintf(b, sizeof b, fmt, x);
-    return std::string(b);
-  };
   std::string h = std::string("<h3>Signed, by speed: gain error of the ") + output +
                   " residual on the modelled output</h3>\n<p>Per 5 m/s band, e = c + k·y<sub>model</sub>: k in %, ± its "
-                  "standard error clustered by chunk; flagged (red) when |k| &gt; " + num("%g", kGainZ) + " SE and &gt; " +
-                  num("%g", 100 * kGainMin) + " %; grey: fewer than " + std::to_string(kGainMinChunks) +
+                  "standard error clustered by chunk; flagged (red) when |k| &gt; " + Fmt("%g", kGainZ) + " SE and &gt; " +
+                  Fmt("%g", 100 * kGainMin) + " %; grey: fewer than " + std::to_string(kGainMinChunks) +
                   " chunks, not judged. A gain error cancels in the bias columns above; a k that changes with "
                   "speed is the signature of an effect whose gain depends on speed.</p>\n<table><tr><th class=l>v [m/s]</th>";
   for (const auto& m : models) h += "<th>" + m.label + " k [%]</th><th>SE [%]</th><th>n</th>";
@@ -186,8 +178,8 @@ std::string GainViewHtml(const GainView& view, const std::vector<FittedModel>& m
     for (const auto& bands : view.per_model) {
       const GainBand& g = bands[b];
       const std::string cls = g.flagged ? " class=fail" : (g.judged ? "" : " class=few");
-      h += "<td" + cls + ">" + (std::isfinite(g.gain) ? num("%+.2f", 100 * g.gain) : std::string("too few")) + "</td><td>" +
-           (std::isfinite(g.se) ? num("%.2f", 100 * g.se) : std::string()) + "</td><td>" + std::to_string(g.n) + "</td>";
+      h += "<td" + cls + ">" + (std::isfinite(g.gain) ? Fmt("%+.2f", 100 * g.gain) : std::string("too few")) + "</td><td>" +
+           (std::isfinite(g.se) ? Fmt("%.2f", 100 * g.se) : std::string()) + "</td><td>" + std::to_string(g.n) + "</td>";
     }
     h += "</tr>\n";
   }
@@ -195,8 +187,8 @@ std::string GainViewHtml(const GainView& view, const std::vector<FittedModel>& m
   for (size_t m = 0; m < models.size() && m < view.chi2.size(); ++m) {
     if (view.dof[m] < 1) continue;
     h += models[m].label + ": the bands' gains " + (view.speed_dependent[m] ? "<b>change with speed</b>" : "agree") +
-         " (chi² " + num("%.1f", view.chi2[m]) + " on " + std::to_string(view.dof[m]) + " dof, 0.999 quantile " +
-         num("%.1f", adequacy::Chi2Quantile999(static_cast<size_t>(view.dof[m]))) + "). ";
+         " (chi² " + Fmt("%.1f", view.chi2[m]) + " on " + std::to_string(view.dof[m]) + " dof, 0.999 quantile " +
+         Fmt("%.1f", adequacy::Chi2Quantile999(static_cast<size_t>(view.dof[m]))) + "). ";
   }
   return h + "</p>\n";
 }

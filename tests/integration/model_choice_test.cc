@@ -14,23 +14,10 @@
 namespace ndsid::testing {
 namespace {
 
-const adequacy::Check* Find(const pipeline::Estimate& e, const std::string& name) {
-  for (const adequacy::Check& c : e.plausibility.checks)
-    if (c.name == name) return &c;
-  return nullptr;
-}
-
 const pipeline::ModelAlternative* Alternative(const pipeline::Estimate& e, const std::string& name) {
   for (const pipeline::ModelAlternative& a : e.model_choice.alternatives)
     if (a.name == name) return &a;
   return nullptr;
-}
-
-std::string Checks(const pipeline::Estimate& e) {
-  std::string out;
-  for (const adequacy::Check& c : e.plausibility.checks)
-    out += c.name + " " + adequacy::VerdictName(c.verdict) + ": " + c.message + "\n";
-  return out;
 }
 
 constexpr double kHours = 0.5;
@@ -43,9 +30,9 @@ void ExpectCovered(const std::string& effect, const std::string& scaled, uint64_
                                        {"road_bank", "gyro_offset"}, kTwoOutputs);
   const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
   const double truth = model::EgToDegPerG(run.eg_truth);
-  ASSERT_TRUE(e.model_choice.judged) << effect << " " << seed << "\n" << Checks(e);
-  const adequacy::Check* c = Find(e, "model_choice");
-  ASSERT_NE(c, nullptr) << Checks(e);
+  ASSERT_TRUE(e.model_choice.judged) << effect << " " << seed << "\n" << CheckList(e);
+  const adequacy::Check* c = FindCheck(e, "model_choice");
+  ASSERT_NE(c, nullptr) << CheckList(e);
   std::printf("%s seed %llu: EG %.3f +- %.3f deg/g (truth %.3f), %s; %s\n", effect.c_str(), static_cast<unsigned long long>(seed),
               e.fit.eg_deg_per_g, e.fit.eg_se_deg_per_g, truth, e.fit.valid ? "valid" : "not valid", c->message.c_str());
   if (e.fit.valid) {
@@ -82,10 +69,10 @@ TEST(ModelChoice, CleanDataAreNotRefitted) {
     SimulatedRun run = SimulateAndReplay("model_choice_clean_" + std::to_string(seed), seed, kHours, {},
                                          {"road_bank", "gyro_offset"}, kTwoOutputs);
     const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
-    ASSERT_TRUE(e.fit.valid) << e.fit.reason << "\n" << Checks(e);
-    EXPECT_FALSE(e.model_choice.judged) << Find(e, "kinematics")->message;
+    ASSERT_TRUE(e.fit.valid) << e.fit.reason << "\n" << CheckList(e);
+    EXPECT_FALSE(e.model_choice.judged) << FindCheck(e, "kinematics")->message;
     EXPECT_TRUE(e.model_choice.alternatives.empty());
-    EXPECT_EQ(Find(e, "model_choice"), nullptr);
+    EXPECT_EQ(FindCheck(e, "model_choice"), nullptr);
     EXPECT_FALSE(pipeline::ScaleDisagreement(e.fit, e.plausibility));
   }
 }

@@ -128,4 +128,18 @@ inline double NoiseFloor(const SimulatedRun& run, const model::ModelSpec& spec) 
   return truth_model.Rmse(TruthVector(run, spec), run.window.validation);
 }
 
+// The estimate's check named `name` (nullptr when it was not made), and every check as lines
+// "name verdict: message" for a failure's message.
+inline const adequacy::Check* FindCheck(const pipeline::Estimate& e, const std::string& name) {
+  for (const adequacy::Check& c : e.plausibility.checks)
+    if (c.name == name) return &c;
+  return nullptr;
+}
+inline std::string CheckList(const pipeline::Estimate& e) {
+  std::string out;
+  for (const adequacy::Check& c : e.plausibility.checks)
+    out += c.name + " " + adequacy::VerdictName(c.verdict) + ": " + c.message + "\n";
+  return out;
+}
+
 }  // namespace ndsid::testing

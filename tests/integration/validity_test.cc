@@ -11,32 +11,19 @@
 namespace ndsid::testing {
 namespace {
 
-const adequacy::Check* Find(const pipeline::Estimate& e, const std::string& name) {
-  for (const adequacy::Check& c : e.plausibility.checks)
-    if (c.name == name) return &c;
-  return nullptr;
-}
-
-std::string Checks(const pipeline::Estimate& e) {
-  std::string out;
-  for (const adequacy::Check& c : e.plausibility.checks)
-    out += c.name + " " + adequacy::VerdictName(c.verdict) + ": " + c.message + "\n";
-  return out;
-}
-
 // Catches: a check that fails good data (a floor, a bias allowance or a halves rule too tight).
 TEST(Validity, CleanDataPassEveryCheckOnEverySeed) {
   for (uint64_t seed : {201, 202, 203}) {
     SimulatedRun run = SimulateAndReplay("validity_clean_" + std::to_string(seed), seed, 1.0, {}, {"road_bank", "gyro_offset"},
                                          {.identify_every_s = 0, .mass_schedule_kg = {}, .yaw_rate_output = true});
     const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
-    ASSERT_TRUE(e.fit.valid) << e.fit.reason << "\n" << Checks(e);
+    ASSERT_TRUE(e.fit.valid) << e.fit.reason << "\n" << CheckList(e);
     for (const char* name : {"converged", "explained_a_y", "explained_yaw_rate", "bounds", "steady_state", "halves"}) {
-      const adequacy::Check* c = Find(e, name);
+      const adequacy::Check* c = FindCheck(e, name);
       ASSERT_NE(c, nullptr) << name;
       EXPECT_EQ(c->verdict, adequacy::Verdict::kPassed) << seed << " " << name << ": " << c->message;
     }
-    EXPECT_LT(Find(e, "explained_a_y")->value, 1.6) << Checks(e);  // clean data: about 1.0-1.4 x the floor
+    EXPECT_LT(FindCheck(e, "explained_a_y")->value, 1.6) << CheckList(e);  // clean data: about 1.0-1.4 x the floor
     // The halves' EGs agree with the whole window's within their sigma, and the truth lies
     // within 3 published sigma.
     ASSERT_TRUE(e.fit.halves);
@@ -57,8 +44,8 @@ TEST(Validity, AFitStoppedAtItsIterationCapIsNotValid) {
   ASSERT_EQ(fit.termination, "NO_CONVERGENCE");
   const pipeline::Estimate& e = run.pipeline->Accept(run.window, fit);
   EXPECT_FALSE(e.fit.valid);
-  ASSERT_NE(Find(e, "converged"), nullptr);
-  EXPECT_EQ(Find(e, "converged")->verdict, adequacy::Verdict::kFailed);
+  ASSERT_NE(FindCheck(e, "converged"), nullptr);
+  EXPECT_EQ(FindCheck(e, "converged")->verdict, adequacy::Verdict::kFailed);
   EXPECT_NE(e.fit.reason.find("not converged"), std::string::npos) << e.fit.reason;
 }
 
@@ -69,10 +56,10 @@ TEST(Validity, AMissingEffectLeavesTheOutputUnexplained) {
     SimulatedRun run = SimulateAndReplay("validity_missing_" + std::to_string(seed), seed, 0.7, {"steer_offset_deg=1.5"},
                                          {"road_bank", "gyro_offset"}, {.identify_every_s = 0, .mass_schedule_kg = {}, .yaw_rate_output = true});
     const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
-    EXPECT_FALSE(e.fit.valid) << Checks(e);
-    ASSERT_NE(Find(e, "explained_a_y"), nullptr);
-    EXPECT_EQ(Find(e, "explained_a_y")->verdict, adequacy::Verdict::kFailed) << Checks(e);
-    EXPECT_GT(Find(e, "explained_a_y")->value, 3.0);
+    EXPECT_FALSE(e.fit.valid) << CheckList(e);
+    ASSERT_NE(FindCheck(e, "explained_a_y"), nullptr);
+    EXPECT_EQ(FindCheck(e, "explained_a_y")->verdict, adequacy::Verdict::kFailed) << CheckList(e);
+    EXPECT_GT(FindCheck(e, "explained_a_y")->value, 3.0);
   }
 }
 
@@ -88,9 +75,9 @@ TEST(Validity, ABoxThatPinsEgMakesItNotValid) {
   ASSERT_TRUE(fit.params[model::kStiffRear].at_bound);
   const pipeline::Estimate& e = run.pipeline->Accept(run.window, fit);
   EXPECT_FALSE(e.fit.valid);
-  ASSERT_NE(Find(e, "bounds"), nullptr);
-  EXPECT_EQ(Find(e, "bounds")->verdict, adequacy::Verdict::kFailed);
-  EXPECT_NE(Find(e, "bounds")->message.find("ch = "), std::string::npos) << Find(e, "bounds")->message;
+  ASSERT_NE(FindCheck(e, "bounds"), nullptr);
+  EXPECT_EQ(FindCheck(e, "bounds")->verdict, adequacy::Verdict::kFailed);
+  EXPECT_NE(FindCheck(e, "bounds")->message.find("ch = "), std::string::npos) << FindCheck(e, "bounds")->message;
 }
 
 // Catches: a vibrating IMU (a raw sensor on a stiff mount, 15..35 Hz) starving the gate or
@@ -105,14 +92,14 @@ TEST(Validity, AVibratingImuIsConditionedByTheLowPass) {
                                             {"road_bank", "gyro_offset"}, raw);
     const pipeline::Estimate& r = shaken.pipeline->IdentifyNow(true);
     if (r.fit.valid) {
-      EXPECT_LT(std::abs(r.fit.eg_rad_per_mps2 - shaken.eg_truth), 3 * r.fit.eg_se_rad_per_mps2) << seed << Checks(r);
+      EXPECT_LT(std::abs(r.fit.eg_rad_per_mps2 - shaken.eg_truth), 3 * r.fit.eg_se_rad_per_mps2) << seed << CheckList(r);
     }
     ReplayTweaks filtered = raw;
     filtered.lowpass_hz = 5;
     SimulatedRun run = SimulateAndReplay("validity_vib_lp_" + std::to_string(seed), seed, 0.7, vibration,
                                          {"road_bank", "gyro_offset"}, filtered);
     const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
-    ASSERT_TRUE(e.fit.valid) << seed << " " << e.fit.reason << "\n" << Checks(e);
+    ASSERT_TRUE(e.fit.valid) << seed << " " << e.fit.reason << "\n" << CheckList(e);
     EXPECT_LT(std::abs(e.fit.eg_rad_per_mps2 - run.eg_truth), 3 * e.fit.eg_se_rad_per_mps2) << seed;
     EXPECT_LT(std::abs(e.fit.eg_rad_per_mps2 / run.eg_truth - 1), 0.02) << seed;
     // The low-pass gives the fit back the driving the vibration took: at least as many gated
