@@ -163,12 +163,14 @@ class Parser {
           n->c = std::move(otherwise);
           return n;
         }
+        if (name == "min" || name == "max") return TwoArguments(name);
+        if (name == "clip") return Clip();
         static const char* kFunctions[] = {"sin", "cos", "tan", "tanh", "exp", "log", "sqrt", "abs", "sgn"};
         bool known = false;
         for (const char* f : kFunctions) known = known || name == f;
         if (!known) {
           pos_ = start;
-          Fail("unknown function '" + name + "' (known: sin cos tan tanh exp log sqrt abs sgn select)");
+          Fail("unknown function '" + name + "' (known: sin cos tan tanh exp log sqrt abs sgn min max clip select)");
         }
         const Nest nest(*this);
         auto n = Make(ExprNode::Kind::kCall, Compare(), nullptr);
@@ -190,6 +192,33 @@ class Parser {
       Fail("unknown name '" + name + "' (signals and parameters here: " + known + ")");
     }
     Fail("unexpected '" + std::string(1, c) + "'");
+  }
+
+  // min(a, b), max(a, b): a call with two arguments.
+  std::unique_ptr<ExprNode> TwoArguments(const std::string& name) {
+    const Nest nest(*this);
+    auto a = Compare();
+    if (!Eat(',')) Fail(name + " needs 2 arguments: " + name + "(a, b)");
+    auto b = Compare();
+    if (!Eat(')')) Fail("expected ')' after the 2 arguments of " + name);
+    auto n = Make(ExprNode::Kind::kCall, std::move(a), std::move(b));
+    n->function = name;
+    return n;
+  }
+  // clip(x, lo, hi) = min(max(x, lo), hi).
+  std::unique_ptr<ExprNode> Clip() {
+    const Nest nest(*this);
+    auto x = Compare();
+    if (!Eat(',')) Fail("clip needs 3 arguments: clip(x, lo, hi)");
+    auto lo = Compare();
+    if (!Eat(',')) Fail("clip needs 3 arguments: clip(x, lo, hi)");
+    auto hi = Compare();
+    if (!Eat(')')) Fail("expected ')' after the 3 arguments of clip");
+    auto lower = Make(ExprNode::Kind::kCall, std::move(x), std::move(lo));
+    lower->function = "max";
+    auto n = Make(ExprNode::Kind::kCall, std::move(lower), std::move(hi));
+    n->function = "min";
+    return n;
   }
 
   const std::string& s_;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "config_sections.h"
 #include "ndsid/common/atomic_file.h"
@@ -24,29 +25,35 @@ FormulaParam ReadFormulaParam(const YamlReader& ps, const std::string& pname) {
   fp.initial = Ranged(pr, "initial", fp.neutral, -kMaxPhysical, kMaxPhysical);
   fp.unit = pr.String("unit", "-");
   pr.Finish();
+  if (fp.upper > fp.lower && (fp.neutral < fp.lower || fp.neutral > fp.upper)) {
+    std::ostringstream why;
+    why << "neutral " << fp.neutral << " lies outside [" << fp.lower << ", " << fp.upper
+        << "]: the base model (every parameter at its neutral value) must lie inside the box";
+    ps.Fail(pname, why.str());
+  }
   if (!(fp.upper > fp.lower) || fp.initial < fp.lower || fp.initial > fp.upper) {
     ps.Fail(pname, "needs min < max and min <= initial <= max");
   }
   return fp;
 }
 
-// model.formulas.<name>: one of a_y_meas, beta_dot, r_dot, and its parameters.
+// model.formulas.<name>: one or more targets (kFormulaTargets), sharing the parameters.
 FormulaSpec ReadFormula(const YamlReader& fs, const std::string& name) {
   const YamlReader f = fs.Child(name);
   FormulaSpec spec;
   spec.name = name;
   spec.file = fs.file();
   spec.line = fs.Line(name);
-  for (const char* target : {"a_y_meas", "beta_dot", "r_dot"}) {
+  for (const char* target : kFormulaTargets) {
     if (f.Has(target)) {
-      if (!spec.target.empty()) f.Fail(target, "a formula states one of a_y_meas, beta_dot, r_dot");
-      spec.target = target;
-      spec.expression = f.String(target);
+      spec.targets.push_back({target, f.String(target)});
     } else {
       f.Raw(target);
     }
   }
-  if (spec.target.empty()) fs.Fail(name, "needs one of a_y_meas, beta_dot, r_dot");
+  if (spec.targets.empty()) {
+    fs.Fail(name, "needs one or more of a_y_meas, r_meas, beta_dot, r_dot, alpha_v, alpha_h, F_v, F_h");
+  }
   if (f.Has("parameters")) {
     const YamlReader ps = f.Child("parameters");
     for (const auto& pkv : ps.node()) spec.params.push_back(ReadFormulaParam(ps, pkv.first.as<std::string>()));

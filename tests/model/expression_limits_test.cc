@@ -78,7 +78,7 @@ model:
     FAIL() << "accepted";
   } catch (const ConfigError& e) {
     const std::string m = e.what();
-    EXPECT_EQ(m.rfind("car.yaml:10: model.formulas.deep: expression", 0), 0u) << m.substr(0, 200);
+    EXPECT_EQ(m.rfind("car.yaml:10: model.formulas.deep.a_y_meas: expression", 0), 0u) << m.substr(0, 200);
   }
 }
 

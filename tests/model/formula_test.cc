@@ -137,7 +137,7 @@ TEST(FormulaEffect, ConfigRejectsMissingTargetWithLine) {
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("car.yaml:11"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("needs one of a_y_meas"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("needs one or more of a_y_meas, r_meas, beta_dot"), std::string::npos) << e.what();
   }
 }
 
@@ -155,6 +155,131 @@ TEST(EffectLibrary, FormulasBelongToTheirConfigurationOnly) {
   EXPECT_NE(spec.library().Find("cubic"), nullptr);  // discovery extends from the same set
   EXPECT_EQ(with.formula_names(), std::vector<std::string>{"cubic"});
   EXPECT_EQ(with.builtin_names(), BuiltinEffectNames());
+}
+
+// Catches: min/max/clip evaluating or differentiating the wrong branch.
+TEST(Expression, MinMaxClipChooseTheirArgumentAndItsDerivative) {
+  EXPECT_DOUBLE_EQ(Eval("min(x, y)", {2, -3}), -3.0);
+  EXPECT_DOUBLE_EQ(Eval("max(x, y)", {2, -3}), 2.0);
+  EXPECT_DOUBLE_EQ(Eval("clip(x, -1, 1)", {2, 0}), 1.0);
+  EXPECT_DOUBLE_EQ(Eval("clip(x, -1, 1)", {-5, 0}), -1.0);
+  EXPECT_DOUBLE_EQ(Eval("clip(x, -1, 1)", {0.25, 0}), 0.25);
+  EXPECT_DOUBLE_EQ(Eval("max(x, 0) + select(x > y, 10, 20)", {3, 1}), 13.0);
+  const Expression e = Expression::Parse("clip(3*x, -1, 1) + min(x, y)", {"x", "y"});
+  const Jet in[2] = {Jet(0.2, 0), Jet(0.5, 1)};
+  const Jet out = e.Evaluate(in);
+  EXPECT_DOUBLE_EQ(out.a, 0.8);
+  EXPECT_DOUBLE_EQ(out.v[0], 4.0);  // 3 (inside the clip) + 1 (x is the min)
+  EXPECT_DOUBLE_EQ(out.v[1], 0.0);
+  EXPECT_THROW(Expression::Parse("min(x)", {"x"}), ConfigError);
+  EXPECT_THROW(Expression::Parse("clip(x, 1)", {"x"}), ConfigError);
+}
+
+std::vector<double> SimulateParams(const std::vector<std::string>& effects, const std::vector<double>& eta,
+                                   const EffectLibrary& library, std::vector<double>* yaw = nullptr) {
+  const Stretch s;
+  const ModelSpec spec = ModelSpec::FromNames(effects, library);
+  std::vector<double> p = kBase;
+  p.insert(p.end(), eta.begin(), eta.end());
+  std::vector<double> y(s.n), r(s.n);
+  SimulateModel(spec, p.data(), kL, s.series(), y.data(), nullptr, r.data());
+  if (yaw) *yaw = r;
+  return y;
+}
+
+double MaxDiff(const std::vector<double>& a, const std::vector<double>& b, size_t from = 0) {
+  double d = 0;
+  for (size_t k = from; k < a.size(); ++k) d = std::max(d, std::abs(a[k] - b[k]));
+  return d;
+}
+
+// Catches: axle targets, base parameters, the inputs in a measurement formula or the yaw-rate
+// measurement target not acting as stated: each is checked against an equivalent built-in
+// effect or formula, and against the base model (the term is not nothing).
+TEST(FormulaEffect, AxleTargetsBaseParametersAndYawRateMeasurement) {
+  const config::Config c = WithFormulas(R"F(    slip_front: {alpha_v: "-so/is", parameters: {so: {min: -0.1, max: 0.1, unit: rad}}}
+    force_front: {F_v: "-cv*so/is", parameters: {so: {min: -0.1, max: 0.1, unit: rad}}}
+    my_gyro: {r_meas: "r*(1 + s)", parameters: {s: {min: -0.2, max: 0.2}}}
+    steer_read: {a_y_meas: "a_y + k*delta", parameters: {k: {min: -10, max: 10}}}
+)F");
+  const EffectLibrary library(c.model_formulas);
+  const auto base = SimulateParams({"slip_front"}, {0.0}, library);
+  const auto builtin = SimulateParams({"steer_offset"}, {0.02}, library);
+  // The stretch starts in the base model's steady state, which the built-in's input offset moves
+  // and a force term does not: the two agree once that start has decayed (8 s).
+  EXPECT_LT(MaxDiff(SimulateParams({"slip_front"}, {0.02}, library), builtin, 400), 1e-6);
+  EXPECT_LT(MaxDiff(SimulateParams({"force_front"}, {0.02}, library), SimulateParams({"slip_front"}, {0.02}, library)), 1e-9);
+  EXPECT_GT(MaxDiff(builtin, base), 0.05);
+  std::vector<double> r_formula, r_builtin, r_base;
+  SimulateParams({"my_gyro"}, {0.05}, library, &r_formula);
+  SimulateParams({"gyro_scale"}, {0.05}, library, &r_builtin);
+  SimulateParams({"my_gyro"}, {0.0}, library, &r_base);
+  EXPECT_LT(MaxDiff(r_formula, r_builtin), 1e-12);
+  EXPECT_GT(MaxDiff(r_formula, r_base), 0.001);
+  // a_y_meas reads the road-wheel angle: the measured a_y moves by k * d_sw / is, sample by sample.
+  const Stretch s;
+  const auto y = SimulateParams({"steer_read"}, {0.7}, library), y0 = SimulateParams({"steer_read"}, {0.0}, library);
+  for (size_t k = 0; k < s.n; k += 37) EXPECT_NEAR(y[k] - y0[k], 0.7 * s.data[2 * k] / kBase[5], 1e-9) << k;
+}
+
+// Catches: the equations of one effect not sharing its parameter. Two targets reading only the
+// states give the sum of two one-target effects with the parameter set equal, and the derivative
+// by the shared parameter is the sum of the derivatives by the two.
+TEST(FormulaEffect, SeveralTargetsShareTheirParameters) {
+  const config::Config c = WithFormulas(R"F(    both: {alpha_v: "k*r", alpha_h: "k*r", parameters: {k: {min: -1, max: 1, unit: s}}}
+    front: {alpha_v: "k1*r", parameters: {k1: {min: -1, max: 1, unit: s}}}
+    rear: {alpha_h: "k2*r", parameters: {k2: {min: -1, max: 1, unit: s}}}
+)F");
+  const EffectLibrary library(c.model_formulas);
+  const auto both = SimulateParams({"both"}, {0.05}, library);
+  EXPECT_LT(MaxDiff(both, SimulateParams({"front", "rear"}, {0.05, 0.05}, library)), 1e-9);
+  EXPECT_GT(MaxDiff(both, SimulateParams({"both"}, {0.0}, library)), 0.01);
+  const Stretch s;
+  auto jets = [&](const std::vector<std::string>& effects, const std::vector<double>& eta) {
+    const ModelSpec spec = ModelSpec::FromNames(effects, library);
+    std::vector<Jet> pj;
+    for (double v : kBase) pj.push_back(Jet(v));
+    for (size_t i = 0; i < eta.size(); ++i) pj.push_back(Jet(eta[i], static_cast<int>(6 + i)));
+    std::vector<Jet> y(s.n);
+    SimulateModel(spec, pj.data(), kL, s.series(), y.data());
+    return y;
+  };
+  const auto jb = jets({"both"}, {0.05}), jfr = jets({"front", "rear"}, {0.05, 0.05});
+  for (size_t k = 0; k < s.n; k += 29) EXPECT_NEAR(jb[k].v[6], jfr[k].v[6] + jfr[k].v[7], 1e-9 * (1 + std::abs(jb[k].v[6]))) << k;
+}
+
+std::string LoadError(const std::string& formulas) {
+  try {
+    const config::Config c = WithFormulas(formulas);
+    const EffectLibrary library(c.model_formulas);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Catches: a formula that is NaN or infinite somewhere in its box, a neutral value outside the
+// box, or a parameter named like a base parameter loading silently (a NaN term then scores every
+// candidate 0 and prints "RMSE -nan").
+TEST(FormulaEffect, LoadCheckFindsNaNInTheBoxAndANeutralOutsideIt) {
+  std::string m = LoadError("    ent: {a_y_meas: \"a_y + k*log(k)\", parameters: {k: {min: 0, max: 1}}}\n");
+  EXPECT_NE(m.find("car.yaml:11"), std::string::npos) << m;
+  EXPECT_NE(m.find("model.formulas.ent.a_y_meas: the formula is NaN with k = 0"), std::string::npos) << m;
+  m = LoadError("    inv: {a_y_meas: \"a_y*(1 + 1/k)\", parameters: {k: {min: 0.5, max: 2}}}\n");
+  EXPECT_NE(m.find("neutral 0 lies outside [0.5, 2]"), std::string::npos) << m;
+  EXPECT_NE(m.find("car.yaml:11"), std::string::npos) << m;
+  m = LoadError("    sat: {r_dot: \"k*r/abs(r)\", parameters: {k: {min: -1, max: 1}}}\n");  // 0/0 driving straight
+  EXPECT_NE(m.find("sat.r_dot: the formula is NaN"), std::string::npos) << m;
+  EXPECT_NE(m.find("r = 0 rad/s"), std::string::npos) << m;
+  m = LoadError("    big: {F_h: \"k*exp(1000*k)\", parameters: {k: {min: -1, max: 1}}}\n");
+  EXPECT_NE(m.find("big.F_h: the formula is infinite with k = 1"), std::string::npos) << m;
+  m = LoadError("    shadow: {F_h: \"m*a_y\", parameters: {m: {min: -1, max: 1}}}\n");
+  EXPECT_NE(m.find("parameter 'm' has the name of a state, input or base parameter"), std::string::npos) << m;
+  m = LoadError("    half: {alpha_v: \"k\", alpha_h: \"0.01 + k\", parameters: {k: {min: -1, max: 1}}}\n");
+  EXPECT_NE(m.find("half.alpha_h: the formula does not reduce to the base model"), std::string::npos) << m;
+  // Guarded, the same hypotheses load.
+  EXPECT_EQ(LoadError("    sat: {r_dot: \"k*clip(r/0.01, -1, 1)\", parameters: {k: {min: -1, max: 1}}}\n"), "");
+  EXPECT_EQ(LoadError("    inv: {a_y_meas: \"a_y*k\", parameters: {k: {min: 0.5, max: 2, neutral: 1, initial: 1}}}\n"), "");
 }
 
 TEST(EffectLibrary, RejectsAFormulaNamedLikeABuiltinOrListedTwice) {

@@ -4,8 +4,9 @@
 // ("STEER_ANGLE_SENSOR.STEER_ANGLE + STEER_ANGLE_SENSOR.STEER_FRACTION").
 // Grammar: numbers, names (letters, digits, '_', and '.' inside: MESSAGE.SIGNAL), + - * /,
 // ^ (right-associative), unary -, parentheses; comparisons == != < > <= >= (1 or 0, lowest
-// precedence, not chained); sin cos tan tanh exp log sqrt abs sgn of one argument;
-// select(condition, a, b) = a where condition != 0, else b.
+// precedence, not chained); sin cos tan tanh exp log sqrt abs sgn of one argument; min(a, b),
+// max(a, b); clip(x, lo, hi) = min(max(x, lo), hi); select(condition, a, b) = a where
+// condition != 0, else b.
 #pragma once
 
 #include <cmath>
@@ -21,7 +22,7 @@ struct ExprNode {
   enum class Kind { kNumber, kVariable, kAdd, kSub, kMul, kDiv, kPow, kNeg, kCall, kCompare, kSelect } kind;
   double number = 0;
   int variable = -1;     // index into the variable names given to ParseExpression
-  std::string function;  // kCall: the function; kCompare: the operator ("==", "<", ...)
+  std::string function;  // kCall: the function (min/max: a and b); kCompare: the operator ("==", "<", ...)
   std::unique_ptr<ExprNode> a, b, c;  // c: kSelect's else-branch
   int depth = 1;  // levels of this subtree (Evaluate recurses this deep)
 };
@@ -72,6 +73,11 @@ class Expression {
       case ExprNode::Kind::kCall: {
         const T x = Eval(*n.a, v);
         const std::string& f = n.function;
+        if (n.b) {  // min, max: the chosen argument (and its derivative)
+          const T y = Eval(*n.b, v);
+          if (f == "min") return y < x ? y : x;
+          return y > x ? y : x;
+        }
         if (f == "sin") return sin(x);
         if (f == "cos") return cos(x);
         if (f == "tan") return tan(x);

@@ -201,10 +201,19 @@ struct FormulaParam {
   std::string unit;
   double lower = 0, upper = 0, initial = 0, neutral = 0;
 };
-struct FormulaSpec {
-  std::string name;        // the effect's name in model.effects
-  std::string target;      // "a_y_meas" (the measured a_y), "beta_dot" or "r_dot" (added terms)
+// One equation of a formula effect: what it states (kFormulaTargets) and the expression.
+struct FormulaTarget {
+  std::string target;
   std::string expression;
+};
+// The targets a formula may state, in the order they are read: the measured outputs as functions
+// (a_y_meas, r_meas), terms added to the state derivatives (beta_dot, r_dot), to an axle's slip
+// angle (alpha_v, alpha_h) or to an axle's lateral force (F_v, F_h). docs/adding-an-effect.md.
+inline constexpr const char* kFormulaTargets[] = {"a_y_meas", "r_meas", "beta_dot", "r_dot",
+                                                  "alpha_v",  "alpha_h", "F_v",     "F_h"};
+struct FormulaSpec {
+  std::string name;                   // the effect's name in model.effects
+  std::vector<FormulaTarget> targets;  // one or more, sharing the parameters
   std::vector<FormulaParam> params;
   std::string file;  // the configuration file and line, for located errors
   int line = 0;

@@ -143,6 +143,12 @@ struct MeasurementContext {
   T yaw_accel;  // r'
   T yaw_rate;   // r
   T speed_mps;
+  // The whole sample, for effects that read more (formula effects): set by SimulateModel; null
+  // where a caller evaluates a term on its own.
+  const State<T>* state = nullptr;
+  const ModelInputs<T>* inputs = nullptr;
+  const Params<T>* params = nullptr;
+  double wheelbase_m = 0;
 };
 
 // The terms of an effect for one scalar type T (double, Jet, SmallJet): declared pure in Effect,

@@ -86,13 +86,13 @@ void SimulateModel(const ModelSpec& spec, const T* params, double l, const Input
   };
   auto measure = [&](const Derivative<T>& d, const State<T>& x, const ModelInputs<T>& u) {
     T a = d.a_y;
-    const MeasurementContext<T> m{d.a_y, d.r_dot, x.r, u.speed_mps};
+    const MeasurementContext<T> m{d.a_y, d.r_dot, x.r, u.speed_mps, &x, &u, &p, l};
     for (size_t e = 0; e < ne; ++e) if (terms[e].measure) a += effects[e]->Measure(eta(e), m, st(e));
     return a;
   };
   auto measure_yaw_rate = [&](const Derivative<T>& d, const State<T>& x, const ModelInputs<T>& u) {
     T r = x.r;
-    const MeasurementContext<T> m{d.a_y, d.r_dot, x.r, u.speed_mps};
+    const MeasurementContext<T> m{d.a_y, d.r_dot, x.r, u.speed_mps, &x, &u, &p, l};
     for (size_t e = 0; e < ne; ++e) if (terms[e].measure_yaw_rate) r += effects[e]->MeasureYawRate(eta(e), m, st(e));
     return r;
   };
