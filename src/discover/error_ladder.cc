@@ -120,7 +120,8 @@ void ErrorLadder::TrySpeedScaleFirst() {
   const double sd = sse.prior_sd;
   ladder_config_.priors.push_back({"speed_scale", sse.scale, sd, "the speed signal against a_x (ndsid diagnose)"});
   const auto& cands = options_.diagnosis.candidates;
-  const bool candidate = cands.empty() || std::find(cands.begin(), cands.end(), "speed_scale") != cands.end();
+  const bool candidate = cands.empty() || options_.diagnosis.candidates_extend_library ||
+                         std::find(cands.begin(), cands.end(), "speed_scale") != cands.end();
   const bool in_model = std::find(effects_.begin(), effects_.end(), "speed_scale") != effects_.end();
   if (!candidate || in_model || !library_.Find("speed_scale") || !(std::abs(sse.scale) > options_.speed_scale_add_sigma * sd)) return;
   std::vector<std::string> trial = effects_;
@@ -201,9 +202,14 @@ std::vector<CandidateScore> ErrorLadder::TrialOrder(const Diagnosis& diagnosis) 
 
 // Refitted: a significant candidate, or one whose predicted RMSE is large_effect_rmse_drop below
 // the rung's (judged on held-out data, not on a noisy z); three at most per rung.
+// A candidate the user added to the library's (--candidates +name) is the engineer's hypothesis:
+// refitted whatever its score.
 bool ErrorLadder::IsTried(const CandidateScore& c, const Diagnosis& diagnosis, int tried) const {
   const bool large = c.rmse_predicted < (1.0 - options_.large_effect_rmse_drop) * diagnosis.rmse;
-  return (c.significant || large) && tried < 3;
+  const auto& listed = options_.diagnosis.candidates;
+  const bool hypothesis = options_.diagnosis.candidates_extend_library &&
+                          std::find(listed.begin(), listed.end(), c.effect) != listed.end();
+  return (c.significant || large || hypothesis) && tried < 3;
 }
 
 // The current effects with `effect` added; an alternative of an effect in the model
@@ -256,10 +262,16 @@ bool ErrorLadder::TryCandidate(const CandidateScore& c, std::vector<EgRelevant>&
   if (both) t.yaw_before = yb, t.yaw_after = ya;
   const std::string contradicts = PriorContradiction(fit_, f2, ladder_config_.priors);
   if (!contradicts.empty()) better = false;
-  t.accepted = better && dbic < 0;
+  const std::string undetermined = UndeterminedParameters(*library_.Get(c.effect), f2, options_.determined_z);
+  t.accepted = better && dbic < 0 && undetermined.empty();
   RecordEgShift(t, fit_, f2);
   const bool eg_moves = both && !t.accepted && contradicts.empty() && IsEgRelevant(t, options_);
   t.why = ExplainTrial(t, better, both, eg_moves, contradicts, options_.min_relative_improvement);
+  if (better && dbic < 0 && !undetermined.empty()) {
+    char why[160];
+    std::snprintf(why, sizeof why, " (held-out RMSE %+.1f %%, dBIC %.1f)", 100 * (after / before - 1), dbic);
+    t.why = "rejected: " + undetermined + why;
+  }
   ladder_.trials.push_back(t);
   if (eg_moves) eg_relevant.push_back({ladder_.trials.size() - 1, dbic, r});
   if (!t.accepted) return false;

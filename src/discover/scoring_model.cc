@@ -14,9 +14,10 @@ bool SharesParameter(const model::EffectLibrary& library, const std::string& a, 
 
 std::vector<std::string> ChooseCandidates(const identify::Identifier& identifier, const DiagnosisOptions& options) {
   const model::ModelSpec& spec = identifier.spec();
-  std::vector<std::string> candidates = options.candidates;
+  const bool defaults = options.candidates.empty() || options.candidates_extend_library;
+  std::vector<std::string> candidates;
   const auto present = spec.effect_names();
-  if (candidates.empty()) {
+  if (defaults) {
     for (const std::string& c : spec.library().builtin_names()) {
       const auto effect = spec.library().Find(c);
       if (effect == nullptr || effect->info().default_candidate) candidates.push_back(c);
@@ -34,7 +35,7 @@ std::vector<std::string> ChooseCandidates(const identify::Identifier& identifier
   const bool two_outputs = identifier.config().yaw_rate_output;
   const bool reads_r = std::any_of(spec.effects().begin(), spec.effects().end(),
                                    [](const auto& e) { return e->info().reads_measured_yaw_rate; });
-  if (options.candidates.empty() && !two_outputs) {
+  if (defaults && !two_outputs) {
     candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                     [&](const std::string& c) {
                                       const auto builtin = model::BuiltinEffectNames();
@@ -44,6 +45,12 @@ std::vector<std::string> ChooseCandidates(const identify::Identifier& identifier
                                                                         one.effects()[0]->info().needs_yaw_rate_output);
                                     }),
                      candidates.end());
+  }
+  // Listed names (added to the defaults, or replacing them) are scored whatever their kind.
+  for (const std::string& c : options.candidates) {
+    const bool listed = std::find(candidates.begin(), candidates.end(), c) != candidates.end();
+    const bool in_model = std::find(present.begin(), present.end(), c) != present.end();
+    if (!listed && !in_model) candidates.push_back(c);
   }
   return candidates;
 }

@@ -105,4 +105,20 @@ bool KeepsSpeedScale(const Trial& t, bool both) {
   return t.held_out_after <= 1.01 * t.held_out_before && (!both || t.yaw_after <= 1.01 * t.yaw_before);
 }
 
+std::string UndeterminedParameters(const model::Effect& effect, const identify::IdentificationResult& fit, double z) {
+  std::string out;
+  for (const model::EffectParam& p : effect.info().params) {
+    if (p.per_drive) continue;
+    const auto e = std::find_if(fit.effect_params.begin(), fit.effect_params.end(),
+                                [&](const identify::ParameterEstimate& x) { return x.name == p.name; });
+    if (e == fit.effect_params.end() || e->fixed) continue;
+    if (std::abs(e->value - p.neutral) > z * e->se) continue;
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "%s = %.4g +- %.2g %s is within %.0f sigma of %.4g (not determined)", p.name.c_str(), e->value,
+                  e->se, e->unit.c_str(), z, p.neutral);
+    out += (out.empty() ? "" : ", ") + std::string(buf);
+  }
+  return out;
+}
+
 }  // namespace ndsid::discover

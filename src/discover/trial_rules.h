@@ -9,6 +9,7 @@
 #include "ndsid/config/config.h"
 #include "ndsid/discover/diagnosis.h"
 #include "ndsid/identify/identifier.h"
+#include "ndsid/model/effect.h"
 
 namespace ndsid::discover {
 
@@ -57,6 +58,11 @@ bool IsEgRelevant(const Trial& t, const LadderOptions& options);
 // reads as a lead or lag) otherwise pre-empts the effect and makes the held-out error worse.
 // "" when kept, else why not, in words.
 std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned);
+
+// The determination rule (LadderOptions::determined_z): every parameter of `effect` in `fit` but
+// the per-drive ones lies more than z standard errors from its neutral value. "" when so, else the
+// parameters that do not, in words.
+std::string UndeterminedParameters(const model::Effect& effect, const identify::IdentificationResult& fit, double z);
 
 // The speed scale read from a_x is added first when neither held-out RMSE rises by more than 1 %.
 bool KeepsSpeedScale(const Trial& t, bool both);

@@ -9,7 +9,10 @@ no effect):
 - the engineer states it as a formula, `alpha_h: "k*(v/30)^2*alpha_h"` (a rear slip-angle term
   that makes ch(v) = ch (1 + k (v/30)^2)), and adds it to model.effects: held-out RMSE of a_y and
   of the yaw rate within 15 % of the clean twin's, the fitted k within 0.05 of the truth, and
-  `replay` publishes EG within 1 % of the simulator's truth (EG of the base parameters).
+  `replay` publishes EG within 1 % of the simulator's truth (EG of the base parameters);
+- `diagnose` from the library alone adds nothing (no library effect stands in for it with a
+  parameter it cannot determine) and calls a_y unexplained; with the formula listed as a
+  hypothesis (`--candidates +rear_stiffer_with_speed`) it adds the formula.
 Catches: an axle target, the reading of v and of the slip angle, or a formula effect in compare
 and replay that do not act as documented (docs/adding-an-effect.md).
 Usage: formula_walkthrough_test.py NDSID_EXE SOURCE_DIR OUT_DIR"""
@@ -78,6 +81,12 @@ def replay(cfg, log, d):
         return json.load(f), printed
 
 
+def diagnose(cfg, log, d, extra):
+    run(["diagnose", "--config", cfg, "--log", log, "--out", d] + extra)
+    with open(os.path.join(d, "diagnosis.json")) as f:
+        return json.load(f)
+
+
 with_formula = formula_config()
 for seed, k_pct in CASES:
     d = os.path.join(out, f"k{k_pct}_{seed}")
@@ -109,6 +118,19 @@ for seed, k_pct in CASES:
         errors.append(f"seed {seed}: fitted k {k_fit}, truth {k_pct / 100}")
     if not est.get("valid"):
         errors.append(f"seed {seed}: with the formula the estimate is not valid: {est['reason']}")
+    # The diagnosis: from the library alone nothing is added and a_y is left unexplained; with the
+    # hypothesis listed (+name) it is refitted and added.
+    lib = diagnose(config, log, os.path.join(d, "diag_library"), [])
+    hyp = diagnose(with_formula, log, os.path.join(d, "diag_hypothesis"),
+                   ["--effects", "road_bank,gyro_offset", "--candidates", "+rear_stiffer_with_speed"])
+    a_y = next(v for v in lib["verdicts"] if v["output"] == "a_y")
+    print(f"  diagnose, library: final {lib['final_effects']}, {a_y['text']}", flush=True)
+    print(f"  diagnose, +hypothesis: final {hyp['final_effects']}", flush=True)
+    if lib["final_effects"] != ["road_bank", "gyro_offset"] or not a_y["unexplained"]:
+        errors.append(f"seed {seed}: from the library alone diagnose added {lib['final_effects']} "
+                      f"(a_y unexplained: {a_y['unexplained']})")
+    if "rear_stiffer_with_speed" not in hyp["final_effects"]:
+        errors.append(f"seed {seed}: the listed hypothesis was not added: {hyp['final_effects']}")
 if errors:
     print("\n".join(errors))
     sys.exit(1)

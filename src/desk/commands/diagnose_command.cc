@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -274,12 +275,43 @@ void ApplyToConfig(const std::string& config_path, const std::vector<std::string
   }
 }
 
+// --candidates: "a,b" replaces the library's default candidates, "+a,+b" adds to them. Each
+// name is checked on its own: alternatives (effects sharing a parameter, which one model cannot
+// hold together) may both be listed.
+struct CandidateList {
+  std::vector<std::string> names;
+  bool extend = false;
+};
+CandidateList ParseCandidates(const std::string& text, const model::EffectLibrary& library) {
+  CandidateList out;
+  if (text.empty()) return out;
+  std::stringstream ss(text);
+  size_t plus = 0;
+  for (std::string item; std::getline(ss, item, ',');) {
+    item.erase(0, item.find_first_not_of(" \t"));
+    item.erase(item.find_last_not_of(" \t") + 1);
+    if (!item.empty() && item[0] == '+') {
+      ++plus;
+      item.erase(0, 1);
+    }
+    if (item.empty()) continue;
+    model::ModelSpec::FromNames({item}, library);  // throws ConfigError naming an unknown effect
+    out.names.push_back(item);
+  }
+  if (plus != 0 && plus != out.names.size()) {
+    throw ConfigError("--candidates: either every name has a '+' (added to the library's candidates) or none (the list replaces them)");
+  }
+  out.extend = plus != 0;
+  return out;
+}
+
 // The ladder's options from the command line and the replayed data.
-discover::LadderOptions MakeLadderOptions(const DiagnoseArgs& a, const std::vector<std::string>& candidates, const ReplayedData& data,
+discover::LadderOptions MakeLadderOptions(const DiagnoseArgs& a, const CandidateList& candidates, const ReplayedData& data,
                                           const std::vector<std::string>& start) {
   discover::LadderOptions opt;
   opt.max_steps = a.max_steps;
-  opt.diagnosis.candidates = candidates;
+  opt.diagnosis.candidates = candidates.names;
+  opt.diagnosis.candidates_extend_library = candidates.extend;
   opt.diagnosis.z_threshold = a.z_threshold;
   opt.unexplained_ratio = a.unexplained_ratio;
   opt.align = !a.no_align;
@@ -295,7 +327,7 @@ int Run(const DiagnoseArgs& a) {
   const config::Config cfg = config::LoadConfig(a.config);
   const model::EffectLibrary library(cfg.model_formulas);
   const std::vector<std::string> start = a.effects.empty() ? cfg.model_effects : ParseEffectList(a.effects, library);
-  const std::vector<std::string> candidates = ParseEffectList(a.candidates, library);
+  const CandidateList candidates = ParseCandidates(a.candidates, library);
   if (a.max_steps < 1) throw ConfigError("--max-steps must be >= 1");
   if (!(a.z_threshold > 0)) throw ConfigError("--z-threshold must be > 0");
   if (!(a.unexplained_ratio > 1)) throw ConfigError("--unexplained-ratio must be > 1 (a held-out RMSE / noise floor ratio)");
@@ -345,7 +377,7 @@ void Register(CLI::App& parent, int& exit_code) {
   cmd->add_option("--config", args->config, "Vehicle configuration (YAML)")->capture_default_str();
   cmd->add_option("--log", args->logs, "Log files (default: source.logs of the configuration)");
   cmd->add_option("--effects", args->effects, "Starting effects, comma-separated (default: model.effects; 'none' = base)");
-  cmd->add_option("--candidates", args->candidates, "Candidate effects, comma-separated (default: every library effect)");
+  cmd->add_option("--candidates", args->candidates, "Candidate effects, comma-separated: replace the library's default candidates, or with a '+' on every name (+my_formula) add to them (default: every library effect)");
   cmd->add_option("--max-steps", args->max_steps, "Most effects the ladder adds")->capture_default_str();
   cmd->add_option("--z-threshold", args->z_threshold,
                   "Significance filter: |robust score z| a candidate needs before the ladder refits with it")
