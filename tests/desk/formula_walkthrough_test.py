@@ -11,8 +11,10 @@ no effect):
   of the yaw rate within 15 % of the clean twin's, the fitted k within 0.05 of the truth, and
   `replay` publishes EG within 1 % of the simulator's truth (EG of the base parameters);
 - `diagnose` from the library alone adds nothing (no library effect stands in for it with a
-  parameter it cannot determine) and calls a_y unexplained; with the formula listed as a
-  hypothesis (`--candidates +rear_stiffer_with_speed`) it adds the formula.
+  parameter it cannot determine), calls a_y unexplained and says it is not one of its effects
+  but a gain that changes with speed, with a formula template; with the formula listed as a
+  hypothesis (`--candidates +rear_stiffer_with_speed`) it adds the formula; on the clean twin it
+  adds nothing and names nothing.
 Catches: an axle target, the reading of v and of the slip angle, or a formula effect in compare
 and replay that do not act as documented (docs/adding-an-effect.md).
 Usage: formula_walkthrough_test.py NDSID_EXE SOURCE_DIR OUT_DIR"""
@@ -129,6 +131,16 @@ for seed, k_pct in CASES:
     if lib["final_effects"] != ["road_bank", "gyro_offset"] or not a_y["unexplained"]:
         errors.append(f"seed {seed}: from the library alone diagnose added {lib['final_effects']} "
                       f"(a_y unexplained: {a_y['unexplained']})")
+    outside = {o["output"]: o for o in lib["outside_library"]}
+    if outside.get("a_y", {}).get("signature") != "gain changes with speed" or "alpha_h:" not in outside["a_y"]["formula_template"]:
+        errors.append(f"seed {seed}: diagnose did not say 'not one of my effects: a gain that changes with speed': {outside}")
+    else:
+        print(f"  {outside['a_y']['text']}", flush=True)
+    if hyp["outside_library"]:
+        errors.append(f"seed {seed}: with the hypothesis added diagnose still names something outside: {hyp['outside_library']}")
+    clean = diagnose(config, os.path.join(twin, "drive.log"), os.path.join(twin, "diag"), [])
+    if clean["outside_library"] or clean["final_effects"] != ["road_bank", "gyro_offset"]:
+        errors.append(f"seed {seed}: on the clean twin diagnose added {clean['final_effects']} / named {clean['outside_library']}")
     if "rear_stiffer_with_speed" not in hyp["final_effects"]:
         errors.append(f"seed {seed}: the listed hypothesis was not added: {hyp['final_effects']}")
 if errors:

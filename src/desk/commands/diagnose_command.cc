@@ -14,6 +14,7 @@
 #include "config_edit.h"
 #include "html_report.h"
 #include "model_report.h"
+#include "outside_library.h"
 #include "ndsid/model/effect_library.h"
 #include "ndsid/common/atomic_file.h"
 #include "ndsid/discover/diagnosis.h"
@@ -238,6 +239,18 @@ void ReportVerdicts(const discover::Ladder& ladder, DiagnoseReport& r) {
   }
 }
 
+// An unexplained output's signature and a formula that would state it (outside_library.h).
+void ReportOutsideLibrary(const std::vector<OutsideLibrary>& found, DiagnoseReport& r) {
+  r.j["outside_library"] = nlohmann::json::array();
+  for (const OutsideLibrary& o : found) {
+    std::printf("  %s\n", o.text.c_str());
+    if (!o.formula_template.empty()) std::printf("\n%s\n", o.formula_template.c_str());
+    r.md += "- " + o.text + (o.formula_template.empty() ? "\n" : "\n\n```yaml\n" + o.formula_template + "```\n");
+    r.j["outside_library"].push_back({{"output", o.output}, {"signature", o.signature}, {"text", o.text},
+                                      {"formula_template", o.formula_template}});
+  }
+}
+
 // diagnosis.json, the ladder's plot, diagnosis.md and the one-page HTML report into `out`.
 void WriteReport(DiagnoseReport& r, const std::string& out, const std::vector<std::string>& final_effects,
                  const std::vector<std::string>& logs, const std::string& title) {
@@ -364,6 +377,7 @@ int Run(const DiagnoseArgs& a) {
   if (!ladder.diagnoses.empty()) ReportRanking(ladder.diagnoses.front(), report);
   ReportLadder(ladder, library, report);
   ReportVerdicts(ladder, report);
+  ReportOutsideLibrary(JudgeOutsideLibrary(*data, ladder, final_effects), report);
   const std::string out = a.out.empty() ? (fs::path(data->config.report_dir) / "diagnose").string() : a.out;
   WriteReport(report, out, final_effects, a.logs.empty() ? data->config.source.logs : a.logs,
               "ndsid diagnose: " + data->outcome.name);
