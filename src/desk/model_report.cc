@@ -24,15 +24,20 @@
 namespace ndsid::desk {
 namespace fs = std::filesystem;
 
-std::vector<std::string> ParseEffectList(const std::string& text, const model::EffectLibrary& library) {
+std::vector<std::string> SplitNames(const std::string& text) {
   std::vector<std::string> out;
-  if (text.empty() || text == "none") return out;
   std::stringstream ss(text);
   for (std::string item; std::getline(ss, item, ',');) {
     item.erase(0, item.find_first_not_of(" \t"));
     item.erase(item.find_last_not_of(" \t") + 1);
     if (!item.empty()) out.push_back(item);
   }
+  return out;
+}
+
+std::vector<std::string> ParseEffectList(const std::string& text, const model::EffectLibrary& library) {
+  if (text.empty() || text == "none") return {};
+  std::vector<std::string> out = SplitNames(text);
   model::ModelSpec::FromNames(out, library);  // throws ConfigError naming an unknown effect
   return out;
 }

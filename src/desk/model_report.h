@@ -30,6 +30,8 @@ struct ReplayedData {
 };
 
 // "a,b" -> {a, b}; "none" or "" -> {} (base model). Throws ConfigError for an unknown name.
+// "a, b,c" -> {"a", "b", "c"}: split on commas, blanks trimmed, empty items dropped.
+std::vector<std::string> SplitNames(const std::string& text);
 std::vector<std::string> ParseEffectList(const std::string& text, const model::EffectLibrary& library);
 std::string JoinEffects(const std::vector<std::string>& effects);  // "[a, b]"
 

@@ -1,7 +1,6 @@
 #include "outside_library.h"
 
-#include <cmath>
-#include <cstdio>
+#include "ndsid/common/format.h"
 
 namespace ndsid::desk {
 namespace {
@@ -10,9 +9,7 @@ std::string Bands(const std::vector<GainBand>& bands) {
   std::string s;
   for (const GainBand& b : bands) {
     if (!b.judged) continue;
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%s%s m/s %+.1f %%%s", s.empty() ? "" : ", ", b.label.c_str(), 100 * b.gain, b.flagged ? "*" : "");
-    s += buf;
+    s += Fmt("%s%s m/s %+.1f %%%s", s.empty() ? "" : ", ", b.label.c_str(), 100 * b.gain, b.flagged ? "*" : "");
   }
   return s;
 }

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
-#include <sstream>
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
@@ -297,13 +296,9 @@ struct CandidateList {
 };
 CandidateList ParseCandidates(const std::string& text, const model::EffectLibrary& library) {
   CandidateList out;
-  if (text.empty()) return out;
-  std::stringstream ss(text);
   size_t plus = 0;
-  for (std::string item; std::getline(ss, item, ',');) {
-    item.erase(0, item.find_first_not_of(" \t"));
-    item.erase(item.find_last_not_of(" \t") + 1);
-    if (!item.empty() && item[0] == '+') {
+  for (std::string item : SplitNames(text)) {
+    if (item[0] == '+') {
       ++plus;
       item.erase(0, 1);
     }
