@@ -130,14 +130,20 @@ Check ModelChoice(const FitFacts& f, const config::PlausibilityConfig& q) {
   const double widened = WidenedSigma(m.eg_se_published_deg_per_g, spread);
   const double scale = std::max(std::abs(f.eg_deg_per_g), q.eg_se_floor_deg_per_g);
   c.value = spread / scale;
-  c.verdict = c.value <= q.model_choice_spread_rel_max ? Verdict::kPassed : Verdict::kFailed;
-  c.message = Fmt("a_y against v*r gain %.4f +- %.4f: refitted with the disagreement in each sensor (%s): EG spread %.3f deg/g "
-                  "= %.1f %% of |EG| (accepted <= %.0f %%), sigma(EG) widened %.3f -> %.3f deg/g",
-                  m.gain, m.gain_se, each.c_str(), spread, 100 * c.value, 100 * q.model_choice_spread_rel_max,
-                  m.eg_se_published_deg_per_g, widened);
+  const bool orphaned = !m.fit_ruled_out_why.empty() && m.published.empty();
+  c.verdict = c.value <= q.model_choice_spread_rel_max && !orphaned ? Verdict::kPassed : Verdict::kFailed;
+  c.message = m.gain > 0 ? Fmt("a_y against v*r gain %.4f +- %.4f", m.gain, m.gain_se) : std::string("a_y against v*r agree");
+  if (!m.wheel_note.empty()) c.message += "; " + m.wheel_note;
+  c.message += Fmt(": refitted with the disagreement in each sensor (%s): EG spread %.3f deg/g = %.1f %% of |EG| (accepted <= "
+                   "%.0f %%), sigma(EG) widened %.3f -> %.3f deg/g",
+                   each.c_str(), spread, 100 * c.value, 100 * q.model_choice_spread_rel_max, m.eg_se_published_deg_per_g, widened);
+  if (!m.fit_ruled_out_why.empty())
+    c.message += "; the fit as identified ruled out (" + m.fit_ruled_out_why + ")" +
+                 (m.published.empty() ? ": no attribution stands" : ": the " + m.published + " refit is published");
   if (c.verdict == Verdict::kFailed)
-    c.message += ": EG depends on which sensor's scale is off, and the bus does not say (a second yaw or speed reference "
-                 "decides it)";
+    c.message += orphaned ? ": the rear wheels contradict every model fitted (the track width, the wheel-speed role or slip?)"
+                          : ": EG depends on which sensor's scale is off, and the bus does not say (a second yaw or speed "
+                            "reference decides it)";
   return c;
 }
 

@@ -35,6 +35,7 @@ constexpr RoleInfo kRoles[kNumRoles] = {
     {"lateral_acceleration", true, false},   {"yaw_rate", false, false},
     {"longitudinal_acceleration", false, false}, {"reverse_gear", false, true},
     {"esc_intervention", false, true},       {"wheel_speed", false, false},
+    {"rear_wheel_speed_difference", false, false},
 };
 
 }  // namespace
@@ -56,7 +57,8 @@ double UnitToSi(Role role, const std::string& unit) {
   switch (role) {
     case Role::kSteeringWheelAngle: units = {{"deg", kDegToRad}, {"rad", 1.0}}; break;
     case Role::kSpeed:
-    case Role::kWheelSpeed: units = {{"km/h", 1.0 / 3.6}, {"kph", 1.0 / 3.6}, {"m/s", 1.0}, {"mph", 0.44704}}; break;
+    case Role::kWheelSpeed:
+    case Role::kRearWheelSpeedDifference: units = {{"km/h", 1.0 / 3.6}, {"kph", 1.0 / 3.6}, {"m/s", 1.0}, {"mph", 0.44704}}; break;
     case Role::kLateralAcceleration:
     case Role::kLongitudinalAcceleration: units = {{"m/s^2", 1.0}, {"m/s2", 1.0}, {"g", 9.81}}; break;
     case Role::kYawRate: units = {{"deg/s", kDegToRad}, {"rad/s", 1.0}}; break;
@@ -95,6 +97,10 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
   c.dbc = Resolve(base_dir, top.String("dbc"));
   ReadSignals(top.Child("signals"), c);
   if (top.Has("sync")) ReadSync(top.Child("sync"), c.sync);
+  if (c.role(Role::kRearWheelSpeedDifference) && !(c.vehicle.track_rear_m > 0)) {
+    top.Child("signals").Fail(RoleKey(Role::kRearWheelSpeedDifference),
+                              "needs vehicle.track_rear_m (the rear track width [m], data sheet): the difference is r times it");
+  }
   for (int i = 0; i < kNumRoles; ++i) {  // a low-pass needs a grid fast enough to run it
     if (c.roles[i] && c.roles[i]->lowpass_hz > c.sync.rate_hz / 4) {
       top.Child("signals").Child(RoleKey(static_cast<Role>(i)))

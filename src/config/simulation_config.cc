@@ -68,6 +68,12 @@ const std::vector<EffectInfo>& EffectTable() {
        "1..7", &SimEffects::accel_vibration_mps2},
       {"gyro_vibration_degps", "deg/s", "RMS of a 15..35 Hz vibration on the gyro while moving", "0.5..5",
        &SimEffects::gyro_vibration_degps},
+      {"rear_wheel_radius_diff_pct", "%",
+       "rear right tyre's rolling radius above the rear left's (wear, pressure): its wheel speed reads v/(1 + d)", "+-1",
+       &SimEffects::rear_wheel_radius_diff_pct},
+      {"wheel_radius_load_pct_per_g", "%/g",
+       "rolling radius falling with the lateral load transfer: the outer wheels read (1 + c a_y/g), the inner (1 - c a_y/g)",
+       "0..1", &SimEffects::wheel_radius_load_pct_per_g},
   };
   return table;
 }
@@ -343,6 +349,8 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
           "effects.gyro_offset_drive_degps in [0, 10] deg/s (a +- range)");
   require(std::fabs(e.gyro_scale_pct) < 50.0, "effects.gyro_scale_pct in (-50, 50) %");
   require(std::fabs(e.accel_scale_pct) < 50.0, "effects.accel_scale_pct in (-50, 50) %");
+  require(std::fabs(e.rear_wheel_radius_diff_pct) <= 10.0, "effects.rear_wheel_radius_diff_pct in [-10, 10] %");
+  require(std::fabs(e.wheel_radius_load_pct_per_g) <= 10.0, "effects.wheel_radius_load_pct_per_g in [-10, 10] %/g");
   require(e.gyro_delay_ms >= 0.0 && e.gyro_delay_ms <= 1000.0, "effects.gyro_delay_ms in [0, 1000] ms");
   require(e.accel_delay_ms >= 0.0 && e.accel_delay_ms <= 1000.0, "effects.accel_delay_ms in [0, 1000] ms");
   require(e.accel_vibration_mps2 >= 0.0 && e.accel_vibration_mps2 <= 30.0, "effects.accel_vibration_mps2 in [0, 30] m/s^2");

@@ -176,6 +176,31 @@ WheelChoice ChooseWheels(Grid& grid, const std::vector<Source>& candidates, cons
   return w;
 }
 
+namespace {
+
+// The rear right minus the rear left wheel speed, where the names give both rear corners, in the
+// unit (and with the factor) of the wheels' mean: with vehicle.track_rear_m a yaw-rate reference
+// (stats/wheel_yaw.h) for the model choice. Wheels found by their sides alone give no rear pair.
+void ProposeRearDifference(const WheelChoice& w, const RoleProposal& mean, InitResult& result) {
+  const Source* corner[4] = {nullptr, nullptr, nullptr, nullptr};
+  for (const auto& wh : w.wheels)
+    if (wh.corner >= 0 && wh.corner < 4) corner[wh.corner] = &wh;
+  if (!corner[2] || !corner[3]) return;
+  RoleProposal p = mean;
+  p.role = Role::kRearWheelSpeedDifference;
+  p.evidence.clear();
+  const std::string pair = corner[3]->expression + " - " + corner[2]->expression;
+  const auto times = mean.expression.find(" * ");
+  p.expression = times == std::string::npos ? pair : "(" + pair + ")" + mean.expression.substr(times, mean.expression.rfind(" / ") - times);
+  p.evidence.push_back(fmt::format("the rear wheels by their names (RR {}, RL {}), right minus left in the unit of the wheels' "
+                                   "mean: with vehicle.track_rear_m, a yaw-rate reference that tells a gyro scale from an "
+                                   "accelerometer scale (the model_choice check)",
+                                   corner[3]->expression, corner[2]->expression));
+  result.roles.push_back(p);
+}
+
+}  // namespace
+
 void ProposeWheelSpeed(const BusData& data, Grid& grid, const WheelChoice& w, const std::vector<double>& v_si,
                        InitResult& result) {
   if (w.wheels.size() < 2 || v_si.empty()) return;
@@ -228,6 +253,7 @@ void ProposeWheelSpeed(const BusData& data, Grid& grid, const WheelChoice& w, co
                                      f.corr, f.n, kMovingWheels_mps, scale, factor, out.name));
   }
   result.roles.push_back(p);
+  ProposeRearDifference(w, p, result);
 }
 
 }  // namespace ndsid::desk::init_detail

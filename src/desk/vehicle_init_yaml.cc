@@ -20,6 +20,7 @@ const char* RoleTitle(Role r) {
     case Role::kYawRate: return "yaw rate";
     case Role::kLongitudinalAcceleration: return "longitudinal acceleration";
     case Role::kWheelSpeed: return "wheel speeds' mean (plausibility of vehicle_speed)";
+    case Role::kRearWheelSpeedDifference: return "rear wheel speeds, right minus left (a yaw-rate reference)";
     default: return "";
   }
 }
@@ -97,7 +98,10 @@ std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in
       << Sureness(p.confidence) << ")" << (p.confidence < 0.7 ? " CHECK" : "") << "; message period "
       << fmt::format("{:.0f} ms", 1000 * p.period_s) << "\n";
     for (const auto& e : p.evidence) y << "  #   " << e << "\n";
-    y << "  " << key << ": {";
+    // The rear difference needs the rear track: without it, the role is written commented out.
+    const bool needs_track = p.role == Role::kRearWheelSpeedDifference && !(in.vehicle.track_rear_m > 0);
+    if (needs_track) y << "  #   needs vehicle.track_rear_m (init --track-rear, from the data sheet): uncomment with it\n";
+    y << (needs_track ? "  # " : "  ") << key << ": {";
     if (p.multi_signal) y << "expr: " << Quoted(p.expression);
     else y << "message: " << p.message << ", signal: " << p.signal;
     y << ", unit: " << p.unit;

@@ -46,8 +46,12 @@ nlohmann::json ModelChoiceJson(const ModelChoice& m) {
                     {"eg_deg_per_g", a.eg_deg_per_g}, {"eg_se_deg_per_g", a.eg_se_deg_per_g},
                     {"rmse_a_y_mps2", a.rmse_a_y_mps2}, {"rmse_yaw_degps", a.rmse_yaw_degps},
                     {"ruled_out", a.ruled_out}, {"ruled_out_why", a.ruled_out_why}});
-  return {{"kinematic_gain", m.gain}, {"kinematic_gain_se", m.gain_se}, {"alternatives", alts}, {"notes", m.notes},
-          {"seconds", m.seconds}};
+  nlohmann::json j = {{"kinematic_gain", m.gain}, {"kinematic_gain_se", m.gain_se}, {"alternatives", alts}, {"notes", m.notes},
+                      {"seconds", m.seconds}, {"fit_ruled_out_why", m.fit_ruled_out_why}, {"published", m.published}};
+  if (m.wheel_yaw.available || !m.wheel_yaw.note.empty())
+    j["wheel_yaw"] = {{"available", m.wheel_yaw.available}, {"gyro_scale", m.wheel_yaw.scale}, {"sd", m.wheel_yaw.sd},
+                      {"note", m.wheel_yaw.note}};
+  return j;
 }
 
 ModelChoice ModelChoiceFromJson(const JsonIn& in) {
@@ -63,6 +67,12 @@ ModelChoice ModelChoiceFromJson(const JsonIn& in) {
   }
   m.notes = in.At("notes").Strings(16);
   m.seconds = in.Number("seconds");
+  if (in.Has("fit_ruled_out_why")) m.fit_ruled_out_why = in.String("fit_ruled_out_why");
+  if (in.Has("published")) m.published = in.String("published");
+  if (in.Has("wheel_yaw")) {
+    const JsonIn w = in.At("wheel_yaw");
+    m.wheel_yaw = {.available = w.Bool("available"), .scale = w.Number("gyro_scale"), .sd = w.Number("sd"), .note = w.String("note")};
+  }
   return m;
 }
 

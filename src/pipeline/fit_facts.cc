@@ -32,6 +32,9 @@ adequacy::ModelChoiceFacts ModelChoiceFactsOf(const ModelChoice& choice, double 
     m.alternatives.push_back({.name = a.name, .scale = a.scale, .eg_deg_per_g = a.eg_deg_per_g,
                               .eg_se_deg_per_g = a.eg_se_deg_per_g, .ruled_out = a.ruled_out, .ruled_out_why = a.ruled_out_why});
   m.notes = choice.notes;
+  m.wheel_note = choice.wheel_yaw.note;
+  m.fit_ruled_out_why = choice.fit_ruled_out_why;
+  m.published = choice.published;
   return m;
 }
 

@@ -7,6 +7,7 @@
 #include "ndsid/common/format.h"
 #include "ndsid/pipeline/pipeline.h"
 #include "ndsid/stats/speed_scale.h"
+#include "ndsid/stats/wheel_yaw.h"
 
 namespace ndsid::pipeline {
 namespace {
@@ -46,13 +47,20 @@ bool SpeedScaleDecided(const WindowSnapshot& snap, double eps, std::string& why)
 
 // One refit of the window with `effect`'s scale (added to the model when it lacks it) free, started
 // at the attribution `value`; the scale the fit ends on is the alternative's.
+// held: the scale held at `value` (the alternative named effect + kHeldSuffix).
 ModelAlternative Refit(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                       const identify::IdentificationResult& fit, const std::string& effect, double value) {
-  ModelAlternative alt{.name = effect, .scale = value};
+                       const identify::IdentificationResult& fit, const std::string& effect, double value,
+                       const std::optional<config::ParameterPrior>& prior, bool held = false) {
+  ModelAlternative alt{.name = held ? effect + kHeldSuffix : effect, .scale = value};
   const model::ModelSpec& spec = identifier.spec();
   std::vector<std::string> names = spec.effect_names();
   if (std::find(names.begin(), names.end(), effect) == names.end()) names.push_back(effect);
-  const config::IdentificationConfig& cfg = identifier.config();
+  config::IdentificationConfig cfg = identifier.config();
+  if (prior) {  // the evidence's prior replaces a configured one on the same parameter
+    std::erase_if(cfg.priors, [&](const config::ParameterPrior& p) { return p.name == prior->name; });
+    cfg.priors.push_back(*prior);
+  }
+  if (held) cfg.fixed_effect_params.emplace_back(effect, value);
   try {
     const model::ModelSpec alt_spec = model::ModelSpec::FromNames(names, spec.library());
     identify::Identifier id(cfg, identifier.wheelbase_m(), alt_spec);
@@ -74,6 +82,7 @@ ModelAlternative Refit(const identify::Identifier& identifier, const WindowSnaps
     const auto [a, yaw] = HeldOutRmse(r);
     alt.rmse_a_y_mps2 = a;
     alt.rmse_yaw_degps = yaw >= 0 ? yaw * kDegPerRad : -1;
+    alt.result = std::make_shared<const identify::IdentificationResult>(r);
   } catch (const std::exception& e) {  // an effect the library lacks, out of memory
     alt.reason = e.what();
   }
@@ -98,6 +107,63 @@ void JudgeAgainstFit(const identify::IdentificationResult& fit, ModelAlternative
   }
 }
 
+// A fit's value of an effect parameter (0: the model lacks it).
+double EffectValue(const identify::IdentificationResult& f, const std::string& name) {
+  for (const identify::ParameterEstimate& p : f.effect_params)
+    if (p.name == name) return p.value;
+  return 0;
+}
+
+// The gyro's scale against the rear wheels that a model predicts: s = (1 + k_r)/(1 + eps).
+double PredictedWheelScale(double gyro_scale, double speed_scale) { return (1 + gyro_scale) / (1 + speed_scale) - 1; }
+
+// Whether the rear wheels' measured s contradicts `predicted` (why in `why`).
+bool WheelsContradict(const WheelYawFacts& w, double predicted, std::string& why) {
+  if (!w.available || !(w.sd > 0) || std::abs(w.scale - predicted) <= kWheelEvidenceZ * w.sd) return false;
+  why = Fmt("the rear wheels give the gyro %+.2f +- %.2f %% against the %+.2f %% it implies", 100 * w.scale, 100 * w.sd,
+            100 * predicted);
+  return true;
+}
+
+WheelYawFacts WheelEvidence(const WindowSnapshot& snap, double track_rear_m) {
+  WheelYawFacts w;
+  if (!(track_rear_m > 0)) return w;
+  std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
+  all.insert(all.end(), snap.validation.begin(), snap.validation.end());
+  const stats::WheelYawEvidence ev = stats::EstimateWheelYawScale(all, track_rear_m);
+  w.available = ev.available;
+  w.scale = ev.scale;
+  w.sd = ev.prior_sd;
+  w.note = ev.note;
+  return w;
+}
+
+// The rear wheels' verdicts: on every alternative, and on the fit as identified; the standing
+// alternative with the lowest held-out a_y RMSE published in the fit's place when it is ruled out.
+void RefereeByWheels(const identify::IdentificationResult& fit, double track_rear_m, ModelChoice& choice) {
+  if (!choice.wheel_yaw.available) return;
+  for (ModelAlternative& a : choice.alternatives) {
+    if (a.ruled_out) continue;
+    const double predicted = a.name.starts_with("gyro_scale") ? PredictedWheelScale(a.scale, 0)
+                             : a.name == "speed_scale" ? PredictedWheelScale(0, a.scale)
+                                                       : 0.0;
+    a.ruled_out = WheelsContradict(choice.wheel_yaw, predicted, a.ruled_out_why);
+  }
+  const double own = PredictedWheelScale(EffectValue(fit, "gyro_scale"), EffectValue(fit, "speed_scale"));
+  if (!WheelsContradict(choice.wheel_yaw, own, choice.fit_ruled_out_why)) return;
+  const ModelAlternative* best = nullptr;
+  for (const ModelAlternative& a : choice.alternatives)
+    if (!a.ruled_out && a.result && (!best || a.rmse_a_y_mps2 < best->rmse_a_y_mps2)) best = &a;
+  if (best) {
+    choice.published = best->name;
+    return;
+  }
+  // Nothing stands: with the gyro and the speed right, the wheels measure the track instead.
+  choice.notes.push_back(Fmt("with the gyro's and the speed's scales right, the rear wheels put the rear track at %.3f m "
+                             "(vehicle.track_rear_m %.3f m)",
+                             track_rear_m / (1 + choice.wheel_yaw.scale), track_rear_m));
+}
+
 }  // namespace
 
 bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
@@ -112,16 +178,26 @@ bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy
 }
 
 ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                                 const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks) {
+                                 const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
+                                 double track_rear_m) {
   ModelChoice choice;
-  if (!ScaleDisagreement(fit, data_checks, &choice.gain, &choice.gain_se)) return choice;
+  if (!fit.valid || !fit.yaw_rate_output) return choice;
+  const bool kinematics = ScaleDisagreement(fit, data_checks, &choice.gain, &choice.gain_se);
+  const WheelYawFacts wheels = WheelEvidence(snap, track_rear_m);
+  const double own = PredictedWheelScale(EffectValue(fit, "gyro_scale"), EffectValue(fit, "speed_scale"));
+  const bool wheels_disagree = wheels.available && std::abs(wheels.scale - own) > kSignificanceZ * wheels.sd &&
+                               std::abs(wheels.scale - own) > kMinScaleDisagreement;
+  if (!kinematics && !wheels_disagree) return choice;
   const auto t0 = std::chrono::steady_clock::now();
   choice.judged = true;
-  const double g = choice.gain;
+  choice.wheel_yaw = wheels;
+  // Starts: where the kinematic gain puts each scale; the gyro's where the rear wheels do.
+  const double g = choice.gain > 0 ? choice.gain : 1.0;
+  const double s = wheels.available ? wheels.scale : 1 / g - 1;
   const struct {
     const char* effect;
     double value;
-  } attributions[] = {{"accel_scale", g - 1}, {"gyro_scale", 1 / g - 1}, {"speed_scale", 1 / g - 1}};
+  } attributions[] = {{"accel_scale", g - 1}, {"gyro_scale", s}, {"speed_scale", kinematics ? 1 / g - 1 : 1 / (1 + s) - 1}};
   for (const auto& a : attributions) {
     if (!identifier.spec().library().Find(a.effect)) {
       choice.notes.push_back(std::string(a.effect) + " left out: not an effect of the library");
@@ -132,10 +208,19 @@ ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const W
       choice.notes.push_back(why);
       continue;
     }
-    ModelAlternative alt = Refit(identifier, snap, fit, a.effect, a.value);
+    std::optional<config::ParameterPrior> prior;
+    if (std::string(a.effect) == "gyro_scale" && wheels.available)
+      prior = config::ParameterPrior{.name = "gyro_scale", .value = wheels.scale, .sd = wheels.sd, .location = "rear wheels"};
+    ModelAlternative alt = Refit(identifier, snap, fit, a.effect, a.value, prior);
     JudgeAgainstFit(fit, alt);
     choice.alternatives.push_back(std::move(alt));
+    if (prior) {  // the gyro's scale held where the wheels put it: the spread covers the two references' disagreement
+      ModelAlternative at = Refit(identifier, snap, fit, a.effect, wheels.scale, std::nullopt, true);
+      JudgeAgainstFit(fit, at);
+      choice.alternatives.push_back(std::move(at));
+    }
   }
+  RefereeByWheels(fit, track_rear_m, choice);
   choice.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return choice;
 }

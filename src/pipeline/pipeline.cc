@@ -240,10 +240,11 @@ FitJob Pipeline::StartFit(std::shared_ptr<const WindowSnapshot> snap) const {
   job.choice = std::make_shared<ModelChoice>();
   job.data_checks = CheckData(*job.snap);  // on this thread; the worker reads the kinematic gain
   job.result = std::async(std::launch::async, [snap = job.snap, identifier = identifier_, warm = WarmStart(), prior = Prior(),
-                                               exact = ExactDue(), fit_s = job.fit_s, checks = job.data_checks, choice = job.choice] {
+                                               exact = ExactDue(), fit_s = job.fit_s, checks = job.data_checks, choice = job.choice,
+                                               track = config_.vehicle.track_rear_m] {
     const auto t0 = std::chrono::steady_clock::now();
     identify::IdentificationResult r = Fit(identifier, *snap, warm, prior, exact);
-    *choice = FitModelAlternatives(identifier, *snap, r, checks);
+    *choice = FitModelAlternatives(identifier, *snap, r, checks, track);
     fit_s->store(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return r;
   });
@@ -277,6 +278,12 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
   linearized_ = std::move(fit.linearized);
   fit.linearized.reset();
   e.fit = std::move(fit);
+  // The rear wheels ruled the fit out and an attribution stands (pipeline/model_choice.h): that
+  // refit is published; the next update's prior stays the fit's own linearisation.
+  if (choice && !choice->published.empty()) {
+    for (const ModelAlternative& a : choice->alternatives)
+      if (a.name == choice->published && a.result) e.fit = *a.result;
+  }
   if (e.fit.valid) last_fit_values_ = e.fit.ValuesFor(identifier_.spec());  // a usable fit, before the checks
   // Plausibility (docs/monitoring.md): a fit of data that break the kinematics, or an EG that is
   // unphysical or undetermined, is published as not valid, with the checks' words as reason.
@@ -338,7 +345,7 @@ const Estimate& Pipeline::IdentifyNow(bool final) {
   const auto t1 = std::chrono::steady_clock::now();
   const adequacy::PlausibilityReport checks = CheckData(snap);
   identify::IdentificationResult fit = Fit(identifier_, snap, WarmStart(), Prior(), final || ExactDue());
-  const ModelChoice choice = FitModelAlternatives(identifier_, snap, fit, checks);
+  const ModelChoice choice = FitModelAlternatives(identifier_, snap, fit, checks, config_.vehicle.track_rear_m);
   const auto t2 = std::chrono::steady_clock::now();
   const Estimate& e = Accept(snap, std::move(fit), &checks, &choice);
   const auto t3 = std::chrono::steady_clock::now();

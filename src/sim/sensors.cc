@@ -113,7 +113,11 @@ void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) 
   const double sgn = st.v < 0 ? -1.0 : 1.0;
   for (int w = 0; w < 4; ++w) {
     const double side = (w % 2 == 0) ? -1.0 : 1.0;  // left wheels (FL, RL) on the inside of a left turn
-    const double vw = std::fabs(st.v + sgn * side * st.r * half_track);
+    // Rolling radius: the outer wheels (right in a left turn, a_y > 0) carry more load and roll
+    // on a smaller radius, so they turn (and read) faster; the rear right's radius differs by d.
+    const double load = 1.0 + side * fx.wheel_radius_load_pct_per_g / 100.0 * st.a_y / g;
+    const double radius = w == 3 ? 1.0 / (1.0 + fx.rear_wheel_radius_diff_pct / 100.0) : 1.0;
+    const double vw = std::fabs(st.v + sgn * side * st.r * half_track) * load * radius;
     out.wheel_speed_meas_mps[w].push_back(standing ? 0.0 : std::max(0.0, scale * vw + nz.speed_kph / 3.6 * n_wheel[w]));
   }
 

@@ -66,6 +66,7 @@ void Accumulator::Add(const gate::GatedSample& g) {
       current_.dt_s = segment_dt_s_;
       current_.has_yaw_rate = g.sample.has_yaw_rate;
       current_.has_long_accel = g.sample.has_long_accel;
+      current_.has_rear_wheel_diff = g.sample.has_rear_wheel_diff;
       segment_open_ = true;
       summed_ = 0;
     }
@@ -79,13 +80,15 @@ void Accumulator::Add(const gate::GatedSample& g) {
     sum_.lat_accel_mps2 += static_cast<float>(s.lat_accel_mps2);
     sum_.yaw_rate_radps += static_cast<float>(s.yaw_rate_radps);
     sum_.long_accel_mps2 += static_cast<float>(s.long_accel_mps2);
+    sum_.rear_wheel_diff_mps += static_cast<float>(s.rear_wheel_diff_mps);
     current_.has_yaw_rate = current_.has_yaw_rate && s.has_yaw_rate;
     current_.has_long_accel = current_.has_long_accel && s.has_long_accel;
+    current_.has_rear_wheel_diff = current_.has_rear_wheel_diff && s.has_rear_wheel_diff;
     if (++summed_ == decimation_) {
       const float k = 1.0f / static_cast<float>(decimation_);
       if (current_.samples.empty()) current_.t0_ns = sum_t0_ns_;
       current_.samples.push_back({sum_.steer_rad * k, sum_.speed_mps * k, sum_.lat_accel_mps2 * k,
-                                  sum_.yaw_rate_radps * k, sum_.long_accel_mps2 * k});
+                                  sum_.yaw_rate_radps * k, sum_.long_accel_mps2 * k, sum_.rear_wheel_diff_mps * k});
       summed_ = 0;
     }
   }
@@ -216,8 +219,14 @@ SegmentSample FromFloats(const float* f) { return SegmentSample{f[0], f[1], f[2]
 nlohmann::json SegmentJson(const Segment& seg) {
   std::vector<float> rows(seg.samples.size() * kSampleFloats);
   for (size_t i = 0; i < seg.samples.size(); ++i) ToFloats(seg.samples[i], &rows[i * kSampleFloats]);
-  return {{"t0_ns", seg.t0_ns}, {"drive", seg.drive_id}, {"dt_s", seg.dt_s}, {"has_yaw_rate", seg.has_yaw_rate},
-          {"has_long_accel", seg.has_long_accel}, {"samples", FloatsToBinary(rows.data(), rows.size())}};
+  nlohmann::json j = {{"t0_ns", seg.t0_ns}, {"drive", seg.drive_id}, {"dt_s", seg.dt_s}, {"has_yaw_rate", seg.has_yaw_rate},
+                      {"has_long_accel", seg.has_long_accel}, {"samples", FloatsToBinary(rows.data(), rows.size())}};
+  if (seg.has_rear_wheel_diff) {  // an optional column: states without it read as before
+    std::vector<float> diff(seg.samples.size());
+    for (size_t i = 0; i < seg.samples.size(); ++i) diff[i] = seg.samples[i].rear_wheel_diff_mps;
+    j["rear_wheel_diff"] = FloatsToBinary(diff.data(), diff.size());
+  }
+  return j;
 }
 
 Segment SegmentFromJson(const JsonIn& in) {
@@ -235,6 +244,16 @@ Segment SegmentFromJson(const JsonIn& in) {
   }
   seg.samples.resize(f.size() / kSampleFloats);
   for (size_t i = 0; i < seg.samples.size(); ++i) seg.samples[i] = FromFloats(&f[i * kSampleFloats]);
+  if (in.Has("rear_wheel_diff")) {
+    const JsonIn diff_in = in.At("rear_wheel_diff");
+    const std::vector<float> diff = diff_in.Floats(1, kMaxSegmentRows);
+    if (diff.size() != seg.samples.size()) diff_in.Fail("not one value per sample");
+    for (size_t i = 0; i < diff.size(); ++i) {
+      if (!std::isfinite(diff[i])) diff_in.Fail("non-finite sample");
+      seg.samples[i].rear_wheel_diff_mps = diff[i];
+    }
+    seg.has_rear_wheel_diff = true;
+  }
   return seg;
 }
 

@@ -129,6 +129,7 @@ void SignalSync::EmitUntil(int64_t t_end, std::vector<Sample>& out) noexcept {
         case Role::kReverseGear: s.reverse = spec->IsActive(v); break;
         case Role::kEscIntervention: s.esc_active = spec->IsActive(v); break;
         case Role::kWheelSpeed: s.wheel_speed_mps = v; s.has_wheel_speed = true; break;
+        case Role::kRearWheelSpeedDifference: s.rear_wheel_diff_mps = v; s.has_rear_wheel_diff = true; break;
         default: break;
       }
     }

@@ -37,6 +37,20 @@ TEST(ConfigConditioning, ReadsALowPassAndRefusesOneAboveAQuarterOfTheSyncRate) {
   EXPECT_NE(ErrorOf(With(kMinimal, "sign: -1}", "sign: -1, lowpass_hz: -1}")).find("out of range"), std::string::npos);
 }
 
+// Catches: the rear wheels' difference accepted without the track that turns it into a yaw rate.
+TEST(ConfigConditioning, TheRearWheelDifferenceNeedsTheRearTrack) {
+  const std::string role = "  rear_wheel_speed_difference: {expr: \"M.RR - M.RL\", unit: km/h}\n";
+  const std::string without = With(kMinimal, "sign: -1}\n", "sign: -1}\n" + role);
+  const std::string e = ErrorOf(without);
+  EXPECT_NE(e.find("signals.rear_wheel_speed_difference"), std::string::npos) << e;
+  EXPECT_NE(e.find("needs vehicle.track_rear_m"), std::string::npos) << e;
+  const std::string with = With(without, "mass_kg: 1500}", "mass_kg: 1500, track_rear_m: 1.6}");
+  const Config c = ParseConfig(with, "car.yaml");
+  ASSERT_NE(c.role(Role::kRearWheelSpeedDifference), nullptr);
+  EXPECT_DOUBLE_EQ(c.role(Role::kRearWheelSpeedDifference)->scale_to_si, 1 / 3.6);
+  EXPECT_DOUBLE_EQ(c.vehicle.track_rear_m, 1.6);
+}
+
 // Catches: one axle load without the other, or loads that contradict the mass, taken silently.
 TEST(ConfigConditioning, AxleLoadsComeInPairsThatAddUpToTheMass) {
   const std::string pair = With(kMinimal, "mass_kg: 1500}", "mass_kg: 1500, front_axle_load_kg: 870, rear_axle_load_kg: 630}");

@@ -236,6 +236,37 @@ TEST_F(SimulatedBus, WrittenConfigLoadsAndListsRolesNotFound) {
   EXPECT_EQ(c.model_effects, (std::vector<std::string>{"road_bank", "gyro_offset"}));
 }
 
+// Catches: the rear wheels' difference not proposed where the names give the rear corners, or
+// written active without the track it needs (the config would not load).
+TEST_F(SimulatedBus, ProposesTheRearWheelDifferenceWrittenActiveOnlyWithTheTrack) {
+  const InitResult r = Propose(example_dbc_, log_);
+  const RoleProposal* p = r.Find(Role::kRearWheelSpeedDifference);
+  ASSERT_NE(p, nullptr);
+  ASSERT_TRUE(p->found);
+  EXPECT_EQ(p->expression, "WHEEL_SPEEDS.WheelSpeedRR - WHEEL_SPEEDS.WheelSpeedRL");
+  EXPECT_EQ(p->unit, "km/h");
+  const fs::path dbc_path = dir_ / "example.dbc";
+  std::ofstream(dbc_path) << example_dbc_;
+  for (const double track : {0.0, 1.55}) {
+    VehicleSheet sheet = kSimSheet;
+    sheet.track_rear_m = track;
+    const std::string yaml = VehicleConfigYaml(r, {"sim", log_, dbc_path.string(), "test", "sim", sheet});
+    const bool commented = yaml.find("  # rear_wheel_speed_difference: {expr:") != std::string::npos;
+    EXPECT_EQ(commented, track == 0) << yaml;
+    const fs::path out = dir_ / ("rear_" + std::to_string(::getpid()) + ".yaml");
+    std::ofstream(out) << yaml;
+    const config::Config c = config::LoadConfig(out.string());
+    const config::RoleSignal* role = c.role(Role::kRearWheelSpeedDifference);
+    if (track == 0) {
+      EXPECT_EQ(role, nullptr);
+    } else {
+      ASSERT_NE(role, nullptr);
+      EXPECT_EQ(role->expr, p->expression);
+      EXPECT_DOUBLE_EQ(c.vehicle.track_rear_m, 1.55);
+    }
+  }
+}
+
 // Without a yaw rate the written config fits a_y alone with the base model (nothing reads a
 // yaw rate it does not have).
 TEST_F(SimulatedBus, WithoutAYawRateTheConfigFitsAyAlone) {

@@ -43,6 +43,8 @@ MISTAKES = {
     "speed_mps": (r"(vehicle_speed: *\{[^}]*unit: )km/h", r"\g<1>m/s", ["kinematics", "wheel_speed"]),
     # the optional wheel_speed role in mph for km/h: only the speed check can see it
     "wheel_mph": (r"(wheel_speed: *\{[^}]*unit: )km/h", r"\g<1>mph", ["wheel_speed"]),
+    # the rear track 10 % or more too small: the rear wheels contradict every model fitted
+    "track": (r"track_rear_m: [0-9.]+", "track_rear_m: 1.40", ["model_choice"]),
 }
 
 
@@ -51,6 +53,7 @@ def vehicle_yaml(log, suv, mistake=None):
     if suv:
         text = re.sub(r"wheelbase_m: [0-9.]+", "wheelbase_m: 2.9", text, count=1)
         text = re.sub(r"mass_kg: [0-9.]+", "mass_kg: 2300", text, count=1)
+        text = re.sub(r"track_rear_m: [0-9.]+", "track_rear_m: 1.65", text, count=1)
         text = re.sub(r"    m:  \{[^\n]*\n    Jz:[^\n]*\n    cv:[^\n]*\n    ch:[^\n]*\n    lv:[^\n]*\n    is:[^\n]*\n", SUV_BOX, text)
     if mistake:
         pattern, repl, _ = MISTAKES[mistake]
@@ -100,6 +103,8 @@ with tempfile.TemporaryDirectory() as d:
             verdict = "valid" if j.get("valid") else "NOT valid"
             print(f"{tag} {mistake}: {verdict}; failed checks {failed}; reason: {j.get('reason', '')[:160]}")
             checks = check if isinstance(check, list) else [check]
+            if mistake == "track" and "rear track at" not in j.get("reason", ""):
+                failures.append(f"{tag} track: the reason does not give the track the wheels imply: {j.get('reason', '')[:300]}")
             if j.get("valid") or any(c not in failed for c in checks):
                 failures.append(f"{tag} {mistake}: expected not valid with {checks} failed, got {verdict}, {failed}")
             if "NOT VALID" not in p.stdout and not j.get("valid"):

@@ -68,6 +68,9 @@ struct ModelChoiceFacts {
   double eg_se_published_deg_per_g = 0;  // sigma(EG) as published before the widening
   std::vector<AlternativeFacts> alternatives;
   std::vector<std::string> notes;  // attributions left out, and why
+  std::string wheel_note;          // the gyro's scale against the rear wheels ("" where the bus lacks them)
+  std::string fit_ruled_out_why;   // the fit as identified contradicts the rear wheels
+  std::string published;           // the alternative published in its place ("" = none)
 };
 
 struct FitFacts {

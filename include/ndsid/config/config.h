@@ -27,6 +27,8 @@ enum class Role {
   kReverseGear,             // flag (optional)
   kEscIntervention,         // flag (optional)
   kWheelSpeed,              // m/s, the wheel speeds' mean (optional; a role expression): plausibility
+  kRearWheelSpeedDifference,// m/s, rear right minus rear left wheel speed (optional; a role expression):
+                            // with vehicle.track_rear_m, a yaw-rate reference (stats/wheel_yaw.h)
   kCount
 };
 inline constexpr int kNumRoles = static_cast<int>(Role::kCount);

@@ -37,6 +37,8 @@ struct SimEffects {
   double mass_change_kg = 0.0;           // per drive: m_i = m + U(-dm, +dm) (Jz scaled with m_i/m)
   double accel_vibration_mps2 = 0.0;     // RMS of a 15..35 Hz vibration on the accelerometer while moving
   double gyro_vibration_degps = 0.0;     // RMS of a 15..35 Hz vibration on the gyro while moving
+  double rear_wheel_radius_diff_pct = 0.0;  // rear right tyre's rolling radius above the left's: RR reads v/(1 + d)
+  double wheel_radius_load_pct_per_g = 0.0;  // rolling radius falling with lateral load: outer wheels read (1 + c a_y/g)
   std::vector<double> mass_schedule_kg;  // if non-empty: m_i = m + schedule[i % size] (overrides)
 
   bool roll_on() const { return roll_gradient_deg_per_g != 0.0; }

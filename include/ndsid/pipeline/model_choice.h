@@ -10,11 +10,22 @@
 //   speed_scale  v_meas = (1 + eps) v,    eps = 1/g - 1 (left out where a_x against dv/dt
 //                decides the speed scale: determined, consistent with 0 and excluding eps)
 // An alternative whose held-out RMSE of some output exceeds the published fit's by more than
-// kRuledOutRmseRatio is ruled out by the data. The checks of the fit (adequacy::ModelChoiceSpread)
+// kRuledOutRmseRatio is ruled out by the data.
+// Where the bus has the rear wheel speeds (signals.rear_wheel_speed_difference with
+// vehicle.track_rear_m), the gyro's scale against them (stats/wheel_yaw.h) is a second trigger
+// (it differs from 1 by kSignificanceZ of its sd and kMinScaleDisagreement) and a referee: it
+// gives the gyro attribution a prior (k_r = s - 1), and every model, the fit as identified
+// included, predicts s (accel_scale: 1; gyro_scale: 1 + k_r; speed_scale: 1/(1 + eps), the
+// wheels sharing the speed's scale); one off the measured s by more than kWheelEvidenceZ of its
+// sd is ruled out. When that rules out the fit as identified, the standing alternative with the
+// lowest held-out a_y RMSE is published in its place (ModelChoice::published). The gyro
+// attribution is refitted twice there: free with the wheels' prior, and held at their value
+// (gyro_scale_at_wheels); the spread over both covers a disagreement of the two references. The checks of the fit (adequacy::ModelChoiceSpread)
 // widen sigma(EG) by the spread of the rest. Only fits with the yaw rate as an output are judged
 // (with a_y alone the scales are absorbed into is and EG: physics.md §4).
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,6 +48,16 @@ struct ModelAlternative {
   double rmse_yaw_degps = -1;
   bool ruled_out = false;    // a held-out RMSE clearly worse than the published fit's (or not fitted)
   std::string ruled_out_why;
+  // The refit itself (not written to estimate.json): published in the fit's place when the rear
+  // wheels rule the fit out and this alternative stands.
+  std::shared_ptr<const identify::IdentificationResult> result;
+};
+
+// The gyro's scale against the rear wheels, as the model choice used it.
+struct WheelYawFacts {
+  bool available = false;
+  double scale = 0, sd = 0;  // s - 1 and its sd (with the track's tolerance)
+  std::string note;
 };
 
 struct ModelChoice {
@@ -45,21 +66,31 @@ struct ModelChoice {
   std::vector<ModelAlternative> alternatives;
   std::vector<std::string> notes;  // alternatives left out and why (e.g. the speed scale decided by a_x)
   double seconds = 0;        // the refits' wall time
+  WheelYawFacts wheel_yaw;   // the rear wheels' evidence (available: false where the bus lacks it)
+  std::string fit_ruled_out_why;  // non-empty: the fit as identified contradicts the rear wheels
+  std::string published;     // the alternative published in the fit's place ("" = the fit as identified)
 };
 
 // The rules above, as constants (docs/monitoring.md states them).
 inline constexpr double kSignificanceZ = 3.0;            // |g - 1| / se(g)
 inline constexpr double kMinScaleDisagreement = 0.005;   // |g - 1|: below, beta' and noise
 inline constexpr double kRuledOutRmseRatio = 1.02;       // alternative's held-out RMSE / the fit's
+inline constexpr double kWheelEvidenceZ = 3.0;           // |s_measured - s_predicted| / sd(s)
+// The gyro attribution with its scale held at the rear wheels' value (beside the one fitted with
+// their prior): the two references of k_r, the data's and the wheels', may disagree by more than
+// the fit's sigma says, and the spread covers it.
+inline constexpr const char* kHeldSuffix = "_at_wheels";
 
 // Whether the window's kinematics check shows a significant scale disagreement for a fit with
 // the yaw rate as an output (the gain and its se from `data_checks`' window-level kinematics).
 bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
                        double* gain = nullptr, double* gain_se = nullptr);
 
-// Refits the snapshot once per attribution (nothing when ScaleDisagreement is false). Runs on the
-// fit's thread; touches no pipeline state.
+// Refits the snapshot once per attribution (nothing when neither the kinematics nor the rear
+// wheels show a disagreement). track_rear_m: vehicle.track_rear_m (0: no wheel evidence). Runs on
+// the fit's thread; touches no pipeline state.
 ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                                 const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks);
+                                 const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
+                                 double track_rear_m = 0);
 
 }  // namespace ndsid::pipeline

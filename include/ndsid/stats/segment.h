@@ -13,6 +13,7 @@ struct SegmentSample {
   float lat_accel_mps2;
   float yaw_rate_radps;
   float long_accel_mps2;
+  float rear_wheel_diff_mps = 0;  // rear right minus rear left wheel speed (Segment::has_rear_wheel_diff)
 };
 
 struct Segment {
@@ -21,6 +22,7 @@ struct Segment {
   double dt_s = 0.02;     // sample period
   bool has_yaw_rate = false;
   bool has_long_accel = false;
+  bool has_rear_wheel_diff = false;
   std::vector<SegmentSample> samples;
 
   double duration_s() const { return dt_s * static_cast<double>(samples.size()); }

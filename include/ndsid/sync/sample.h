@@ -18,6 +18,8 @@ struct Sample {
   bool has_long_accel = false;
   double wheel_speed_mps = 0;    // the wheel speeds' mean (valid only if has_wheel_speed)
   bool has_wheel_speed = false;
+  double rear_wheel_diff_mps = 0;  // rear right minus rear left wheel speed (valid only if has_rear_wheel_diff)
+  bool has_rear_wheel_diff = false;
   bool reverse = false;          // reverse gear engaged
   bool esc_active = false;       // ESC/ABS intervening
   bool valid = false;            // all required roles fresh and every validity flag says valid
