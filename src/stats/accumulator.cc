@@ -80,7 +80,7 @@ void Accumulator::Add(const gate::GatedSample& g) {
     sum_.lat_accel_mps2 += static_cast<float>(s.lat_accel_mps2);
     sum_.yaw_rate_radps += static_cast<float>(s.yaw_rate_radps);
     sum_.long_accel_mps2 += static_cast<float>(s.long_accel_mps2);
-    sum_.rear_wheel_diff_mps += static_cast<float>(s.rear_wheel_diff_mps);
+    if (s.has_rear_wheel_diff) sum_.rear_wheel_diff_mps += static_cast<float>(s.rear_wheel_diff_mps);
     current_.has_yaw_rate = current_.has_yaw_rate && s.has_yaw_rate;
     current_.has_long_accel = current_.has_long_accel && s.has_long_accel;
     current_.has_rear_wheel_diff = current_.has_rear_wheel_diff && s.has_rear_wheel_diff;
@@ -298,6 +298,7 @@ nlohmann::json Accumulator::ToJson() const {
     ToFloats(sum_, sum);
     o["open_segment"] = {{"segment", SegmentJson(current_)}, {"summed", summed_},
                          {"sum", FloatsToBinary(sum, kSampleFloats)}, {"sum_t0_ns", sum_t0_ns_}};
+    if (current_.has_rear_wheel_diff) o["open_segment"]["sum_rear_wheel_diff"] = sum_.rear_wheel_diff_mps;
   } else {
     o["open_segment"] = nullptr;
   }
@@ -378,6 +379,7 @@ void Accumulator::FromJson(const JsonIn& in) {
         if (!std::isfinite(v)) js.Fail("non-finite partial sum");
       }
       sum = FromFloats(f.data());
+      if (os.Has("sum_rear_wheel_diff")) sum.rear_wheel_diff_mps = static_cast<float>(os.Finite("sum_rear_wheel_diff"));
       sum_t0_ns = os.Int64("sum_t0_ns");
       if (current.drive_id != drives.back().drive_id || summed < 0 || summed >= decimation_)
         os.Fail("implausible open segment (another drive, or a partial sum outside the decimation)");

@@ -39,6 +39,7 @@ struct Feeder {
   int64_t t_ns = 0;
   double distance_m = 0;
   bool prev_accepted = false;
+  bool rear_wheels = false;  // the samples carry the rear wheels' difference
 
   gate::GatedSample Next(bool accepted, bool new_drive = false) {
     if (new_drive) {
@@ -55,6 +56,8 @@ struct Feeder {
     g.sample.lat_accel_mps2 = 2.0 * std::sin(0.3 * t);
     g.sample.yaw_rate_radps = 0.1 * std::sin(0.3 * t);
     g.sample.has_yaw_rate = true;
+    g.sample.rear_wheel_diff_mps = 0.155 * std::sin(0.3 * t);
+    g.sample.has_rear_wheel_diff = rear_wheels;
     g.sample.valid = true;
     g.verdict = accepted ? gate::Verdict::kAccepted : gate::Verdict::kNonlinearRange;
     g.drive_id = drive_id;
@@ -329,13 +332,17 @@ TEST(AccumulatorState, TheDriveInProgressGoesOnAfterARestart) {
 // uninterrupted run's, segment for segment and sample for sample.
 TEST(AccumulatorState, AWarmedUpRestartContinuesTheOpenSegmentExactly) {
   const config::Config config = SmallConfig(20);
+  for (const bool wheels : {false, true}) {  // with the rear wheels' difference: its partial sum too
   Fed whole(config);
+  whole.f.rear_wheels = wheels;
   FeedDrives(whole.f, 0, kTotal);
   whole.acc.Finish();
   for (int restart_at : {3300, 3999, 5000}) {
     Fed before(config);
+    before.f.rear_wheels = wheels;
     FeedDrives(before.f, 0, restart_at);
     Fed after(config);
+    after.f.rear_wheels = wheels;
     RestoreBytes(after.acc, Bytes(before.acc));
     after.acc.SkipThrough(before.acc.last_sample_ns());
     constexpr int kWarmup = 100;  // 1 s at 100 Hz
@@ -360,6 +367,7 @@ TEST(AccumulatorState, AWarmedUpRestartContinuesTheOpenSegmentExactly) {
     }
     EXPECT_NEAR(after.acc.gated_hours(), whole.acc.gated_hours(), 1e-12) << restart_at;
     EXPECT_EQ(after.acc.counters().short_segment_samples, whole.acc.counters().short_segment_samples) << restart_at;
+  }
   }
 }
 
@@ -396,6 +404,47 @@ TEST(AccumulatorState, RestoreUnderAShorterWindowEvicts) {
   RestoreBytes(b, bytes);
   ASSERT_EQ(b.window().size(), 1u);  // 30 s + 32 s: the older 30 s segment is beyond 15 s
   EXPECT_EQ(b.counters().evicted_segments, 1u);
+}
+
+}  // namespace
+}  // namespace ndsid::stats
+
+namespace ndsid::stats {
+namespace {
+
+// Catches: the rear wheels' difference lost in the window or the learned state, a state without
+// it read as having it, or a column of the wrong length or with a NaN restored.
+TEST(AccumulatorState, TheRearWheelDifferenceIsKeptAndRestored) {
+  const config::Config config = SmallConfig(20);
+  Accumulator a(config, kSyncHz);
+  Feeder f{a};
+  f.rear_wheels = true;
+  f.Feed(3000, true, true);  // 600 m: the drive is used
+  f.Feed(10, false);
+  ASSERT_EQ(a.window().size(), 1u);
+  const Segment& seg = *a.window().front();
+  ASSERT_TRUE(seg.has_rear_wheel_diff);
+  // Decimated by 2 from 100 Hz: the mean of two consecutive samples of 0.155 sin(0.3 t).
+  const double t0 = 0.01, t1 = 0.02;
+  EXPECT_NEAR(seg.samples[0].rear_wheel_diff_mps, 0.5 * 0.155 * (std::sin(0.3 * t0) + std::sin(0.3 * t1)), 1e-6);
+  const std::string bytes = Bytes(a);
+  Accumulator b(config, kSyncHz);
+  RestoreBytes(b, bytes);
+  EXPECT_EQ(Bytes(b), bytes);
+  ASSERT_EQ(b.window().size(), 1u);
+  EXPECT_TRUE(b.window().front()->has_rear_wheel_diff);
+  EXPECT_EQ(b.window().front()->samples.back().rear_wheel_diff_mps, seg.samples.back().rear_wheel_diff_mps);
+  nlohmann::json j = a.ToJson();
+  j["window"][0].erase("rear_wheel_diff");  // a state written without the column
+  RestoreBytes(b, ToCbor(j));
+  EXPECT_FALSE(b.window().front()->has_rear_wheel_diff);
+  j = a.ToJson();
+  j["window"][0]["rear_wheel_diff"].get_binary().resize(8);
+  EXPECT_THROW(RestoreBytes(b, ToCbor(j)), CodecError);
+  j = a.ToJson();
+  auto& col = j["window"][0]["rear_wheel_diff"].get_binary();
+  col[0] = 0, col[1] = 0, col[2] = 0xc0, col[3] = 0x7f;  // a NaN (little endian)
+  EXPECT_THROW(RestoreBytes(b, ToCbor(j)), CodecError);
 }
 
 }  // namespace
