@@ -59,7 +59,9 @@ def estimator_config(cls: str, name: str, folder: str, logs: list[str], window_h
         cfg = yaml.safe_load(f)
     c = CLASSES[cls]
     cfg = copy.deepcopy(cfg)
-    cfg["vehicle"] = {"name": name, "wheelbase_m": c["wheelbase_m"], "mass_kg": c["mass_kg"]}
+    # The class's own rear track: the example's rear wheel difference reads r against it.
+    cfg["vehicle"] = {"name": name, "wheelbase_m": c["wheelbase_m"], "mass_kg": c["mass_kg"],
+                      "track_rear_m": c["track_width_m"]}
     cfg["source"]["logs"] = list(logs)
     cfg["dbc"] = os.path.join(ndsid.SOURCE_DIR, "dbc", "ndsid_example.dbc")
     cfg["state_dir"] = os.path.join(folder, "state")
