@@ -3,7 +3,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+
+#include "ndsid/common/format.h"
 
 namespace ndsid::stats {
 namespace {
@@ -143,22 +144,17 @@ WheelYawEvidence EstimateWheelYawScale(const std::vector<const Segment*>& segmen
   // b2 = -s (1 + eps) delta, b3 = -s (1 + eps) kappa: reported relative to the wheels' own scale.
   if (terms >= 2) out.radius_diff = -fit.beta(1) / s;
   if (terms >= 3) out.load_per_g = -fit.beta(2) / s * kGravity_mps2;
-  char buf[320];
   if (!std::isfinite(out.scale) || !std::isfinite(out.se) || std::abs(out.scale) > options.max_abs_scale) {
-    std::snprintf(buf, sizeof buf,
-                  "yaw rate against the rear wheels: r_meas = %.3f (v_RR - v_RL)/t, not within 1 +- %.2f: the "
-                  "rear_wheel_speed_difference role's sign (right minus left), its unit or vehicle.track_rear_m is wrong; not used",
-                  s, options.max_abs_scale);
-    out.note = buf;
+    out.note = Fmt("yaw rate against the rear wheels: r_meas = %.3f (v_RR - v_RL)/t, not within 1 +- %.2f: the "
+                   "rear_wheel_speed_difference role's sign (right minus left), its unit or vehicle.track_rear_m is wrong; not used",
+                   s, options.max_abs_scale);
     return out;
   }
   out.available = true;
   out.prior_sd = std::hypot(out.se, options.track_tolerance);
-  std::snprintf(buf, sizeof buf,
-                "yaw rate against the rear wheels: r_meas = (1 %+.4f +- %.4f) (v_RR - v_RL)/t (rolling radii differ by %+.2f %%, "
-                "%+.2f %%/g with load; %d chunks, %ld rows)",
-                out.scale, out.se, 100 * out.radius_diff, 100 * out.load_per_g, out.chunks, out.rows);
-  out.note = buf;
+  out.note = Fmt("yaw rate against the rear wheels: r_meas = (1 %+.4f +- %.4f) (v_RR - v_RL)/t (rolling radii differ by %+.2f %%, "
+                 "%+.2f %%/g with load; %d chunks, %ld rows)",
+                 out.scale, out.se, 100 * out.radius_diff, 100 * out.load_per_g, out.chunks, out.rows);
   return out;
 }
 

@@ -20,8 +20,8 @@
 // sd is ruled out. When that rules out the fit as identified, the standing alternative with the
 // lowest held-out a_y RMSE is published in its place (ModelChoice::published). The gyro
 // attribution is refitted twice there: free with the wheels' prior, and held at their value
-// (gyro_scale_at_wheels); the spread over both covers a disagreement of the two references. The checks of the fit (adequacy::ModelChoiceSpread)
-// widen sigma(EG) by the spread of the rest. Only fits with the yaw rate as an output are judged
+// (gyro_scale_at_wheels); the spread over both covers a disagreement of the two references.
+// The checks of the fit (adequacy::ModelChoiceSpread) widen sigma(EG) by the spread of the rest. Only fits with the yaw rate as an output are judged
 // (with a_y alone the scales are absorbed into is and EG: physics.md §4).
 #pragma once
 

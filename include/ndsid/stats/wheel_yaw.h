@@ -8,17 +8,17 @@
 // where eps is the wheel speeds' scale, delta the two tyres' rolling-radius difference and
 // kappa the rolling radius's fall with lateral load (the outer wheel rolls on a smaller radius).
 // With r_meas = (1 + k_r) r + r0, per 0.5 s block:
-//   r_meas = s (v_RR - v_RL)/t + b2 v/t + b3 v^2 (v_RR - v_RL)/t^2 + per-chunk constant,
-//   s = (1 + k_r)/(1 + eps)   (the load term kappa a_y v written with a_y = v r, quasi-steady)
+//   r_meas = s (v_RR - v_RL)/t + b2 v/t + b3 a_y v/t + per-chunk constant,   s = (1 + k_r)/(1 + eps)
 // fitted by instrumental variables (instruments a_y/v, v/t, a_y v/t): the wheel speeds' noise is
-// in the regressors and would attenuate an ordinary least-squares slope; a_y/v follows r and is
-// independent of both sensors' noise (and a_y's own noise sits in no regressor). Chunks (30 s) are demeaned (the gyro offset and slowly
+// in the first regressor and would attenuate an ordinary least-squares slope; a_y/v follows r and
+// is independent of both sensors' noise (a_y's own noise, averaged over the block, is small
+// against its signal in the load term). Chunks (30 s) are demeaned (the gyro offset and slowly
 // varying radius differences) and cluster the standard error. Blocks with wheel slip are left
 // out: low speed, strong longitudinal or lateral acceleration (options below).
 // What it measures is the gyro's scale relative to the rear wheel speeds' mean scale (a rear
-// tyre whose rolling radius is d above the other's moves that mean by about -d/2): with the speed's scale
-// (the vehicle speed is usually computed from the wheel speeds) from a_x against dv/dt
-// (stats/speed_scale.h), k_r itself.
+// tyre whose rolling radius is d above the other's moves that mean by about -d/2): with the
+// speed's scale (the vehicle speed is usually computed from the wheel speeds) from a_x against
+// dv/dt (stats/speed_scale.h), k_r itself.
 #pragma once
 
 #include <string>
