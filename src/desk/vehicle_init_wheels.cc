@@ -181,7 +181,8 @@ namespace {
 // The rear right minus the rear left wheel speed, where the names give both rear corners, in the
 // unit (and with the factor) of the wheels' mean: with vehicle.track_rear_m a yaw-rate reference
 // (stats/wheel_yaw.h) for the model choice. Wheels found by their sides alone give no rear pair.
-void ProposeRearDifference(const WheelChoice& w, const RoleProposal& mean, InitResult& result) {
+// times: the mean's factor as written after its sum (" * 0.119883"), "" for a plain unit.
+void ProposeRearDifference(const WheelChoice& w, const RoleProposal& mean, const std::string& times, InitResult& result) {
   const Source* corner[4] = {nullptr, nullptr, nullptr, nullptr};
   for (const auto& wh : w.wheels)
     if (wh.corner >= 0 && wh.corner < 4) corner[wh.corner] = &wh;
@@ -190,8 +191,7 @@ void ProposeRearDifference(const WheelChoice& w, const RoleProposal& mean, InitR
   p.role = Role::kRearWheelSpeedDifference;
   p.evidence.clear();
   const std::string pair = corner[3]->expression + " - " + corner[2]->expression;
-  const auto times = mean.expression.find(" * ");
-  p.expression = times == std::string::npos ? pair : "(" + pair + ")" + mean.expression.substr(times, mean.expression.rfind(" / ") - times);
+  p.expression = times.empty() ? pair : "(" + pair + ")" + times;
   p.evidence.push_back(fmt::format("the rear wheels by their names (RR {}, RL {}), right minus left in the unit of the wheels' "
                                    "mean: with vehicle.track_rear_m, a yaw-rate reference that tells a gyro scale from an "
                                    "accelerometer scale (the model_choice check)",
@@ -234,6 +234,7 @@ void ProposeWheelSpeed(const BusData& data, Grid& grid, const WheelChoice& w, co
   for (size_t i = 1; i < su.size(); ++i)
     if (std::fabs(std::log(su[i].to_si / k)) < std::fabs(std::log(su[bu].to_si / k))) bu = i;
   const std::string n = std::to_string(w.wheels.size());
+  std::string times;  // the factor after the sum, shared with the rear difference
   if (!w.rpm && std::fabs(std::log(su[bu].to_si / k)) < std::log(1.1)) {
     p.expression = SumOf(w.wheels) + " / " + n;
     p.unit = su[bu].name;
@@ -244,7 +245,8 @@ void ProposeWheelSpeed(const BusData& data, Grid& grid, const WheelChoice& w, co
     const int speed_unit = std::max(0, MatchUnit(su, speed.unit));
     const UnitOption& out = su[static_cast<size_t>(speed_unit)];
     const double factor = k / out.to_si;
-    p.expression = fmt::format("{} * {:.6g} / {}", SumOf(w.wheels), factor, n);
+    times = fmt::format(" * {:.6g}", factor);
+    p.expression = SumOf(w.wheels) + times + " / " + n;
     p.unit = out.name;
     const std::string scale = w.rpm ? fmt::format("rolling radius {:.4f} m (1/min × 2π/60 × r = m/s)", k * 60.0 / (2.0 * M_PI))
                                     : fmt::format("{:.5g} m/s per bus unit (no speed unit within 10 %)", k);
@@ -253,7 +255,7 @@ void ProposeWheelSpeed(const BusData& data, Grid& grid, const WheelChoice& w, co
                                      f.corr, f.n, kMovingWheels_mps, scale, factor, out.name));
   }
   result.roles.push_back(p);
-  ProposeRearDifference(w, p, result);
+  ProposeRearDifference(w, p, times, result);
 }
 
 }  // namespace ndsid::desk::init_detail

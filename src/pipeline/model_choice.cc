@@ -32,10 +32,8 @@ std::pair<double, double> HeldOutRmse(const identify::IdentificationResult& f) {
 }
 
 // Whether a_x against dv/dt decides the speed scale against the attribution eps (note in `why`).
-bool SpeedScaleDecided(const WindowSnapshot& snap, double eps, std::string& why) {
-  std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
-  all.insert(all.end(), snap.validation.begin(), snap.validation.end());
-  const stats::SpeedScaleEvidence ev = stats::EstimateSpeedScale(all);
+bool SpeedScaleDecided(const std::vector<const stats::Segment*>& window, double eps, std::string& why) {
+  const stats::SpeedScaleEvidence ev = stats::EstimateSpeedScale(window);
   if (!ev.available || !(ev.prior_sd > 0)) return false;
   const bool zero = std::abs(ev.scale) <= kSpeedEvidenceZ * ev.prior_sd;
   const bool excludes = std::abs(ev.scale - eps) > kSpeedEvidenceZ * ev.prior_sd;
@@ -125,12 +123,10 @@ bool WheelsContradict(const WheelYawFacts& w, double predicted, std::string& why
   return true;
 }
 
-WheelYawFacts WheelEvidence(const WindowSnapshot& snap, double track_rear_m) {
+WheelYawFacts WheelEvidence(const std::vector<const stats::Segment*>& window, double track_rear_m) {
   WheelYawFacts w;
   if (!(track_rear_m > 0)) return w;
-  std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
-  all.insert(all.end(), snap.validation.begin(), snap.validation.end());
-  const stats::WheelYawEvidence ev = stats::EstimateWheelYawScale(all, track_rear_m);
+  const stats::WheelYawEvidence ev = stats::EstimateWheelYawScale(window, track_rear_m);
   w.available = ev.available;
   w.scale = ev.scale;
   w.sd = ev.prior_sd;
@@ -138,9 +134,10 @@ WheelYawFacts WheelEvidence(const WindowSnapshot& snap, double track_rear_m) {
   return w;
 }
 
-// The rear wheels' verdicts: on every alternative, and on the fit as identified; the standing
-// alternative with the lowest held-out a_y RMSE published in the fit's place when it is ruled out.
-void RefereeByWheels(const identify::IdentificationResult& fit, double track_rear_m, ModelChoice& choice) {
+// The rear wheels' verdicts: on every alternative, and on the fit as identified (whose scales
+// imply `own`); the standing alternative with the lowest held-out a_y RMSE published in the
+// fit's place when it is ruled out.
+void RefereeByWheels(double own, double track_rear_m, ModelChoice& choice) {
   if (!choice.wheel_yaw.available) return;
   for (ModelAlternative& a : choice.alternatives) {
     if (a.ruled_out) continue;
@@ -149,7 +146,6 @@ void RefereeByWheels(const identify::IdentificationResult& fit, double track_rea
                                                        : 0.0;
     a.ruled_out = WheelsContradict(choice.wheel_yaw, predicted, a.ruled_out_why);
   }
-  const double own = PredictedWheelScale(EffectValue(fit, "gyro_scale"), EffectValue(fit, "speed_scale"));
   if (!WheelsContradict(choice.wheel_yaw, own, choice.fit_ruled_out_why)) return;
   const ModelAlternative* best = nullptr;
   for (const ModelAlternative& a : choice.alternatives)
@@ -183,7 +179,8 @@ ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const W
   ModelChoice choice;
   if (!fit.valid || !fit.yaw_rate_output) return choice;
   const bool kinematics = ScaleDisagreement(fit, data_checks, &choice.gain, &choice.gain_se);
-  const WheelYawFacts wheels = WheelEvidence(snap, track_rear_m);
+  const std::vector<const stats::Segment*> window = snap.AllSegments();
+  const WheelYawFacts wheels = WheelEvidence(window, track_rear_m);
   const double own = PredictedWheelScale(EffectValue(fit, "gyro_scale"), EffectValue(fit, "speed_scale"));
   const bool wheels_disagree = wheels.available && std::abs(wheels.scale - own) > kSignificanceZ * wheels.sd &&
                                std::abs(wheels.scale - own) > kMinScaleDisagreement;
@@ -204,7 +201,7 @@ ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const W
       continue;
     }
     std::string why;
-    if (std::string(a.effect) == "speed_scale" && SpeedScaleDecided(snap, a.value, why)) {
+    if (std::string(a.effect) == "speed_scale" && SpeedScaleDecided(window, a.value, why)) {
       choice.notes.push_back(why);
       continue;
     }
@@ -220,7 +217,7 @@ ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const W
       choice.alternatives.push_back(std::move(at));
     }
   }
-  RefereeByWheels(fit, track_rear_m, choice);
+  RefereeByWheels(own, track_rear_m, choice);
   choice.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return choice;
 }

@@ -251,10 +251,14 @@ FitJob Pipeline::StartFit(std::shared_ptr<const WindowSnapshot> snap) const {
   return job;
 }
 
+std::vector<const stats::Segment*> WindowSnapshot::AllSegments() const {
+  std::vector<const stats::Segment*> all(training.begin(), training.end());
+  all.insert(all.end(), validation.begin(), validation.end());
+  return all;
+}
+
 adequacy::PlausibilityReport Pipeline::CheckData(const WindowSnapshot& snap) const {
-  std::vector<const stats::Segment*> all(snap.training.begin(), snap.training.end());
-  all.insert(all.end(), snap.validation.begin(), snap.validation.end());
-  adequacy::PlausibilityReport r = adequacy::CheckData(all, config_.plausibility);
+  adequacy::PlausibilityReport r = adequacy::CheckData(snap.AllSegments(), config_.plausibility);
   adequacy::CheckWheelSpeed(snap.wheel_speed, config_.plausibility, r);  // as at the snapshot
   return r;
 }

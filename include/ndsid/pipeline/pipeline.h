@@ -65,6 +65,8 @@ struct WindowSnapshot {
   stats::Coverage coverage;
   std::vector<gate::StandstillStop> standstill;  // the standstills of the window's drives (evidence)
   std::map<int64_t, adequacy::SpeedSums> wheel_speed;  // the window's drives' speed sums (plausibility)
+
+  std::vector<const stats::Segment*> AllSegments() const;  // training, then validation
 };
 
 // A periodic fit running on a worker thread beside the reading (the daemon, ndsid replay):
