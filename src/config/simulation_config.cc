@@ -161,6 +161,23 @@ class MapReader {
       }
     };
   }
+  // A mapping of free names (e.g. DBC messages) to numbers.
+  void NumberMap(const char* key, std::map<std::string, double>& out) {
+    handlers_[key] = [this, &out, key](const YAML::Node& v) {
+      if (!v.IsMap()) Fail(v, std::string("expected a mapping of names to numbers for ") + path_ + key);
+      out.clear();
+      for (const auto& kv : v) {
+        double x = 0;
+        try {
+          x = kv.second.as<double>();
+        } catch (const YAML::Exception&) {
+          Fail(kv.second, std::string("expected a number in ") + path_ + key);
+        }
+        if (!std::isfinite(x)) Fail(kv.second, std::string("not finite: ") + path_ + key);
+        out[kv.first.as<std::string>()] = x;
+      }
+    };
+  }
   void Map(const char* key, std::function<void(MapReader&)> fill) {
     handlers_[key] = [this, fill, key](const YAML::Node& v) {
       MapReader sub(v, path_ + key + ".", file_);
@@ -266,6 +283,8 @@ SimulationConfig ParseSimulationConfig(std::string_view yaml_text, const std::st
   r.Map("bus", [&](MapReader& m) {
     m.Number("default_cycle_ms", c.bus.default_cycle_ms);
     m.Number("signal_cycle_ms", c.bus.signal_cycle_ms);
+    m.NumberMap("message_cycle_ms", c.bus.message_cycle_ms);
+    m.Number("frame_loss_pct", c.bus.frame_loss_pct);
     m.Map("signals", [&](MapReader& sig) {
       for (const auto& q : SimBusQuantities()) sig.Text(q.c_str(), c.bus.signals[q]);
     });
@@ -297,6 +316,9 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   };
   require(c.bus.default_cycle_ms >= 0 && c.bus.default_cycle_ms <= 10000, "bus.default_cycle_ms must be in 0..10000");
   require(c.bus.signal_cycle_ms >= 10 && c.bus.signal_cycle_ms <= 10000, "bus.signal_cycle_ms must be in 10..10000");
+  for (const auto& [name, ms] : c.bus.message_cycle_ms)
+    require(ms >= 10 && ms <= 10000, "bus.message_cycle_ms." + name + " must be in 10..10000");
+  require(c.bus.frame_loss_pct >= 0 && c.bus.frame_loss_pct <= 50, "bus.frame_loss_pct must be in 0..50");
   for (const auto& [q, ref] : c.bus.signals) {
     const auto dot = ref.find('.');
     require(dot != std::string::npos && dot > 0 && dot + 1 < ref.size(), "bus.signals." + q + ": expected MESSAGE.SIGNAL, got '" + ref + "'");

@@ -137,8 +137,13 @@ FrameEncoder::FrameEncoder(const dbc::Database& db, const config::SimulationConf
     return false;
   };
   const bool by_map = !mapped.empty();
+  for (const auto& [name, ms] : cfg.bus.message_cycle_ms)
+    if (db.FindMessage(name) == nullptr)
+      throw ConfigError(cfg.source_file + ": bus.message_cycle_ms." + name + ": " + db.file + " has no message " + name);
   for (const auto& m : db.messages) {
-    double cycle_ms = m.cycle_time_ms && *m.cycle_time_ms > 0.0 ? *m.cycle_time_ms
+    const auto own = cfg.bus.message_cycle_ms.find(m.name);
+    double cycle_ms = own != cfg.bus.message_cycle_ms.end()       ? own->second
+                      : m.cycle_time_ms && *m.cycle_time_ms > 0.0 ? *m.cycle_time_ms
                       : by_map && carries_mapped(m)               ? cfg.bus.signal_cycle_ms
                                                                   : cfg.bus.default_cycle_ms;
     if (cycle_ms <= 0.0) continue;
@@ -184,6 +189,8 @@ void FrameEncoder::EncodeDriveImpl(const DriveResult& drive, void (*emit)(void*,
   const DriveSeries& s = drive.series;
   const size_t n = s.size();
   Rng jitter(MixSeed(impl_->cfg.seed, 50000 + static_cast<uint64_t>(drive.index)));
+  Rng loss(MixSeed(impl_->cfg.seed, 60000 + static_cast<uint64_t>(drive.index)));
+  const double loss_p = impl_->cfg.bus.frame_loss_pct / 100.0;
   const int64_t start_us = drive.start_epoch_ns / 1000;
   double odometer_km = drive.odometer_start_km;
   const double mass = drive.params.m;
@@ -207,6 +214,10 @@ void FrameEncoder::EncodeDriveImpl(const DriveResult& drive, void (*emit)(void*,
     const bool valid = s.valid[i] != 0;
     for (const Pending& d : due) {
       MessagePlan& p = *d.plan;
+      if (loss_p > 0 && loss.Bernoulli(loss_p)) {  // lost on the way to the logger: the ECU's counter moves on
+        ++p.counter;
+        continue;
+      }
       can::CanFrame f;
       f.timestamp_ns = d.ts_us * 1000;
       f.id = p.message->id;

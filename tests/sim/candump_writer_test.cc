@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -219,6 +220,44 @@ TEST_F(CandumpWriterTest, BusSignalMissingFromTheDbcIsAConfigError) {
   }
   EXPECT_THROW(config::ParseSimulationConfig("bus:\n  signals:\n    yaw_rate: NoDot\n", "bus.yaml"), ConfigError);
   EXPECT_THROW(config::ParseSimulationConfig("bus:\n  signals:\n    yaw: A.B\n", "bus.yaml"), ConfigError);
+}
+
+// bus.message_cycle_ms and bus.frame_loss_pct (docs/simulator.md, "Low and irregular rates"):
+// the message at its own cycle, a share of its frames lost near the stated one (intervals of
+// whole cycles), the ECU's counter advancing over each loss. Catches an override ignored, losses
+// that reorder or retime frames, a counter that hides the gap.
+TEST_F(CandumpWriterTest, MessageCyclesAndFrameLossGiveIrregularIntervals) {
+  config::SimulationConfig cfg = config::ParseSimulationConfig(
+      "bus:\n  message_cycle_ms: {ESP_DYNAMICS: 80}\n  frame_loss_pct: 20\n", "bus.yaml");
+  cfg.duration.drives = 1;
+  cfg.seed = 4;
+  const SimulationResult r = Simulate(cfg);
+  FrameEncoder encoder(db_, cfg);
+  std::vector<int64_t> t;
+  std::vector<uint8_t> counter;
+  for (const can::CanFrame& f : encoder.EncodeDrive(r.drives[0])) {
+    if (f.id != 0x0C0) continue;
+    t.push_back(f.timestamp_ns);
+    counter.push_back(f.data[6] & 0x0F);
+  }
+  const double expected = static_cast<double>(r.drives[0].series.size()) / 8.0;  // 100 Hz samples / 8 ticks
+  ASSERT_GT(t.size(), 100u);
+  const double kept = static_cast<double>(t.size()) / expected;
+  std::printf("ESP_DYNAMICS at 80 ms with 20 %% loss: %.3f of the frames kept\n", kept);
+  EXPECT_NEAR(kept, 0.8, 0.03);
+  size_t gaps = 0;
+  for (size_t i = 1; i < t.size(); ++i) {
+    const int64_t cycles = std::llround(static_cast<double>(t[i] - t[i - 1]) / 80e6);
+    ASSERT_GE(cycles, 1);
+    EXPECT_NEAR(static_cast<double>(t[i] - t[i - 1]) / 1e6, 80.0 * static_cast<double>(cycles), 0.5);
+    ASSERT_EQ(counter[i], (counter[i - 1] + cycles) % 16) << "counter over a gap of " << cycles << " cycles";
+    gaps += cycles > 1;
+  }
+  EXPECT_GT(gaps, t.size() / 10);
+  config::SimulationConfig unknown = config::ParseSimulationConfig("bus:\n  message_cycle_ms: {NO_SUCH: 80}\n", "bus.yaml");
+  EXPECT_THROW(FrameEncoder(db_, unknown), ConfigError);
+  EXPECT_THROW(config::ParseSimulationConfig("bus:\n  message_cycle_ms: {ESP_DYNAMICS: 5}\n", "bus.yaml"), ConfigError);
+  EXPECT_THROW(config::ParseSimulationConfig("bus:\n  frame_loss_pct: 60\n", "bus.yaml"), ConfigError);
 }
 
 }  // namespace

@@ -121,6 +121,13 @@ struct SimBus {
   double default_cycle_ms = 0;
   // ... except those carrying a mapped signal, sent at this cycle [ms] (10..10000).
   double signal_cycle_ms = 10;
+  // Message name -> its cycle [ms] (10..10000), over the DBC's GenMsgCycleTime and the two above:
+  // a sensor sent at a low rate (a 10 Hz gyro). Rounded to the 10 ms tick.
+  std::map<std::string, double> message_cycle_ms;
+  // Each frame lost with this probability [%] (0..50; a stream of its own, so 0 keeps the log
+  // bit-identical): irregular sample intervals, as a logger or gateway that drops frames gives.
+  // The ECU's rolling counter still advances over a lost frame.
+  double frame_loss_pct = 0;
   // Quantity -> "MESSAGE.SIGNAL"; the quantities are listed in SimBusQuantities(). Each value is
   // written in the signal's DBC unit when that is one of deg|rad, deg/s|rad/s, km/h|m/s|mph,
   // m/s^2|g (else in the quantity's own unit: deg, deg/s, km/h, m/s^2). Every other signal of the
