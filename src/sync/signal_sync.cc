@@ -163,7 +163,22 @@ void SignalSync::Advance(int64_t now_ns, std::vector<Sample>& out) noexcept {
     ++counters_.gaps;
     return;
   }
-  EmitUntil(now_ns - latency_ns_, out);
+  EmitUntil(ReadyUntil(now_ns), out);
+}
+
+// The grid instant up to which every role can interpolate: now - latency, or earlier where a
+// live role's newest value (stamped at most its timeout ago) does not yet reach past the instant
+// it is read at. A slow or irregular role (a 12.5 Hz IMU message, lost frames) is then waited
+// for, within its timeout, instead of held at its older value (a lag of up to a cycle).
+int64_t SignalSync::ReadyUntil(int64_t now_ns) const noexcept {
+  int64_t t_end = now_ns - latency_ns_;
+  for (int i = 0; i < config::kNumRoles; ++i) {
+    const Channel& c = roles_[i];
+    if (!config_.roles[i] || config::RoleIsFlag(static_cast<Role>(i)) || c.size == 0) continue;
+    const int64_t newest = c.newest().t_ns;
+    if (now_ns - c.shift_ns - newest <= c.timeout_ns) t_end = std::min(t_end, newest - c.lead_ns);
+  }
+  return t_end;
 }
 
 void SignalSync::Flush(std::vector<Sample>& out) noexcept { EmitUntil(last_seen_ns_, out); }

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -44,6 +45,12 @@ struct ReplayTweaks {
   // their own IdentificationConfig.
   bool yaw_rate_output = false;
   double lowpass_hz = 0;  // signals.<role>.lowpass_hz on a_y and the yaw rate (0: none)
+  // The simulator's bus: messages at their own cycles and frames lost (docs/simulator.md, "Low
+  // and irregular rates"); timeout_s > 0: every role's and validity flag's timeout, as a user sets
+  // it for a slow bus.
+  std::map<std::string, double> message_cycle_ms;
+  double frame_loss_pct = 0;
+  double timeout_s = 0;
 };
 
 inline std::string TempDir(const std::string& name) {
@@ -63,6 +70,8 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.sim.duration.hours = hours;
   for (const auto& e : effects) config::ApplyEffect(run.sim.effects, e);
   run.sim.effects.mass_schedule_kg = tweaks.mass_schedule_kg;
+  run.sim.bus.message_cycle_ms = tweaks.message_cycle_ms;
+  run.sim.bus.frame_loss_pct = tweaks.frame_loss_pct;
   const std::string src = NDSID_SOURCE_DIR;
   run.config = std::make_unique<config::Config>(config::LoadConfig(src + "/config/example_vehicle.yaml"));
   run.config->model_effects = model_effects;
@@ -70,6 +79,11 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   if (tweaks.identify_every_s > 0) run.config->identification.period_s = tweaks.identify_every_s;
   for (config::Role role : {config::Role::kLateralAcceleration, config::Role::kYawRate}) {
     if (run.config->roles[static_cast<int>(role)]) run.config->roles[static_cast<int>(role)]->lowpass_hz = tweaks.lowpass_hz;
+  }
+  if (tweaks.timeout_s > 0) {
+    for (auto& r : run.config->roles)
+      if (r) r->timeout_s = tweaks.timeout_s;
+    for (auto& v : run.config->validity) v.timeout_s = tweaks.timeout_s;
   }
   run.db = std::make_unique<dbc::Database>(dbc::ParseDbcFile(run.config->dbc));
   const std::string log = TempDir(name) + "/drive.log";

@@ -33,7 +33,8 @@ class SignalSync {
   void PushRole(config::Role role, int64_t t_ns, double value_si) noexcept;
   void PushValidity(size_t index, int64_t t_ns, double physical) noexcept;
 
-  // Emits (appends to `out`) every grid sample at or before now_ns - latency.
+  // Emits (appends to `out`) every grid sample at or before now_ns - latency, and not past the
+  // newest value of a role still within its timeout (a slow role is waited for, not held).
   void Advance(int64_t now_ns, std::vector<Sample>& out) noexcept;
   // End of stream: emits the samples up to the last value seen.
   void Flush(std::vector<Sample>& out) noexcept;
@@ -62,6 +63,7 @@ class SignalSync {
   bool Interpolate(const Channel& c, int64_t t, double& value) const noexcept;
   bool Hold(const Channel& c, int64_t t, double& value) const noexcept;
   void EmitUntil(int64_t t_end, std::vector<Sample>& out) noexcept;
+  int64_t ReadyUntil(int64_t now_ns) const noexcept;
   void Note(int64_t t_ns, std::vector<Sample>* out) noexcept;
   bool AcceptTime(Channel& c, int64_t t_ns, double v) noexcept;
 
