@@ -3,6 +3,8 @@
 #include <cmath>
 #include <set>
 
+#include "ndsid/common/format.h"
+
 namespace ndsid::pipeline {
 namespace {
 
@@ -25,6 +27,19 @@ std::pair<double, double> Spreads(const WindowSnapshot& snap) {
 }
 
 }  // namespace
+
+void ScaleFloorsForSlowRoles(const WindowSnapshot& snap, double fit_rate_hz, identify::IdentificationResult& fit) {
+  auto scale = [&](const char* output, double interval_s, double& floor) {
+    const double p = interval_s * fit_rate_hz;
+    if (!(p > 1) || !(floor > 0)) return;
+    floor *= p;
+    fit.identifiability.notes.push_back(Fmt("%s's noise floor x %.2f: it comes every %.0f ms, %.2f fit samples, and noise interpolated between "
+                            "its frames looks that much smoother",
+                            output, p, 1e3 * interval_s, p));
+  };
+  scale("a_y", snap.a_y_interval_s, fit.floor_a_y_mps2);
+  if (fit.yaw_rate_output) scale("the yaw rate", snap.yaw_rate_interval_s, fit.floor_yaw_radps);
+}
 
 adequacy::ModelChoiceFacts ModelChoiceFactsOf(const ModelChoice& choice, double eg_se_published_deg_per_g) {
   adequacy::ModelChoiceFacts m{.gain = choice.gain, .gain_se = choice.gain_se, .eg_se_published_deg_per_g = eg_se_published_deg_per_g};

@@ -191,6 +191,8 @@ WindowSnapshot Pipeline::Snapshot() const {
     const auto it = wheel_speed_.find(d);
     if (it != wheel_speed_.end()) snap.wheel_speed.emplace(*it);
   }
+  snap.a_y_interval_s = sync_.MeanInterval_s(config::Role::kLateralAcceleration);
+  snap.yaw_rate_interval_s = sync_.MeanInterval_s(config::Role::kYawRate);
   return snap;
 }
 
@@ -288,6 +290,7 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
     for (const ModelAlternative& a : choice->alternatives)
       if (a.name == choice->published && a.result) e.fit = *a.result;
   }
+  ScaleFloorsForSlowRoles(snap, config_.identification.rate_hz, e.fit);
   if (e.fit.valid) last_fit_values_ = e.fit.ValuesFor(identifier_.spec());  // a usable fit, before the checks
   // Plausibility (docs/monitoring.md): a fit of data that break the kinematics, or an EG that is
   // unphysical or undetermined, is published as not valid, with the checks' words as reason.

@@ -58,7 +58,17 @@ bool SignalSync::AcceptTime(Channel& c, int64_t t_ns, double v) noexcept {
 void SignalSync::PushRole(Role role, int64_t t_ns, double value_si) noexcept {
   Channel& c = roles_[static_cast<int>(role)];
   t_ns -= c.shift_ns;  // time alignment: the instant the value describes
-  if (AcceptTime(c, t_ns, value_si)) c.Push({t_ns, value_si});
+  if (!AcceptTime(c, t_ns, value_si)) return;
+  if (c.size > 0) {  // the interval since the role's previous value, bus silences left out
+    const int64_t d = t_ns - c.newest().t_ns;
+    if (d > 0 && d <= max_gap_ns_) c.interval_sum_ns += d, ++c.intervals;
+  }
+  c.Push({t_ns, value_si});
+}
+
+double SignalSync::MeanInterval_s(Role role) const noexcept {
+  const Channel& c = roles_[static_cast<int>(role)];
+  return c.intervals ? 1e-9 * static_cast<double>(c.interval_sum_ns) / static_cast<double>(c.intervals) : 0.0;
 }
 
 void SignalSync::PushValidity(size_t index, int64_t t_ns, double physical) noexcept {

@@ -66,6 +66,10 @@ TEST(SignalSync, WaitsForASlowIrregularRoleWithinItsTimeout) {
     ++checked;
   }
   EXPECT_GT(checked, 250);
+  // Intervals of 80 and 160 ms in turn (every third frame lost): 120 ms on average.
+  EXPECT_NEAR(s.MeanInterval_s(Role::kLateralAcceleration), 0.120, 0.002);
+  EXPECT_NEAR(s.MeanInterval_s(Role::kSteeringWheelAngle), 0.010, 1e-6);
+  EXPECT_EQ(s.MeanInterval_s(Role::kYawRate), 0.0);  // never seen
 }
 
 // Catches: interpolation that is off by a phase (a lag between roles is a fake time skew).

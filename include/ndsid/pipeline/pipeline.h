@@ -65,6 +65,9 @@ struct WindowSnapshot {
   stats::Coverage coverage;
   std::vector<gate::StandstillStop> standstill;  // the standstills of the window's drives (evidence)
   std::map<int64_t, adequacy::SpeedSums> wheel_speed;  // the window's drives' speed sums (plausibility)
+  // The mean interval between the outputs' values on the bus [s] (0: unknown): a role slower
+  // than the fit's sample rate is interpolated between its frames (ScaleFloorsForSlowRoles).
+  double a_y_interval_s = 0, yaw_rate_interval_s = 0;
 
   std::vector<const stats::Segment*> AllSegments() const;  // training, then validation
 };

@@ -40,6 +40,9 @@ class SignalSync {
   void Flush(std::vector<Sample>& out) noexcept;
 
   const SyncCounters& counters() const noexcept { return counters_; }
+  // The mean interval between a role's values [s] (bus silences longer than max_fill_gap_s left
+  // out); 0 before its second value.
+  double MeanInterval_s(config::Role role) const noexcept;
   int64_t period_ns() const noexcept { return period_ns_; }
 
  private:
@@ -56,6 +59,8 @@ class SignalSync {
     int64_t shift_ns = 0;  // signals.<role>.latency_s: values are stored at t_bus - shift
     BesselLowPass filter;  // signals.<role>.lowpass_hz (disabled: none)
     int64_t lead_ns = 0;   // the filter's delay: grid sample t is filtered from the value at t + lead
+    int64_t interval_sum_ns = 0;  // intervals between values (MeanInterval_s)
+    uint64_t intervals = 0;
     const Point& newest() const { return ring[head]; }
     const Point& at(int age) const { return ring[(head - age + kHistory) % kHistory]; }
     void Push(Point p);
