@@ -1,5 +1,7 @@
 // Accelerometer bias: a_meas = a_y + b.  Residual signature without it: a constant (also at
-// standstill). Identifiable from (d_sw, v, a_y).
+// standstill). Identifiable from (d_sw, v, a_y). The box, +-2 m/s^2, is the sensor's own bias
+// plus a mounting tilt of up to about 11 degrees about the longitudinal axis (g sin(tilt)): a
+// logger's IMU on a bracket, not only a factory-calibrated ESC sensor.
 #include "builtin_effects.h"
 
 namespace ndsid::model {
@@ -12,7 +14,7 @@ class AccelBias final : public EffectImpl<AccelBias> {
                     .description = "a_meas = a_y + b",
                     .signature = "constant offset, also at standstill",
                     .params = {{.name = "accel_bias_mps2", .unit = "m/s^2",
-                                .lower = -0.5, .upper = 0.5, .initial = 0.0, .neutral = 0.0, .typical = 0.1}},
+                                .lower = -2.0, .upper = 2.0, .initial = 0.0, .neutral = 0.0, .typical = 0.1}},
                     .num_states = 0}) {}
   template <class T>
   T MeasureT(const T* eta, const MeasurementContext<T>&, const T*) const {
