@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 namespace ndsid::sync {
 
@@ -180,15 +181,20 @@ void SignalSync::Advance(int64_t now_ns, std::vector<Sample>& out) noexcept {
 // live role's newest value (stamped at most its timeout ago) does not yet reach past the instant
 // it is read at. A slow or irregular role (a 12.5 Hz IMU message, lost frames) is then waited
 // for, within its timeout, instead of held at its older value (a lag of up to a cycle).
+// The wait never outlasts a role's history: a grid instant older than the oldest value a full
+// ring still holds could no longer be interpolated, so such instants are emitted regardless.
 int64_t SignalSync::ReadyUntil(int64_t now_ns) const noexcept {
-  int64_t t_end = now_ns - latency_ns_;
+  const int64_t latest = now_ns - latency_ns_;
+  int64_t t_end = latest, history = INT64_MIN;
   for (int i = 0; i < config::kNumRoles; ++i) {
     const Channel& c = roles_[i];
-    if (!config_.roles[i] || config::RoleIsFlag(static_cast<Role>(i)) || c.size == 0) continue;
+    if (!config_.roles[i] || c.size == 0) continue;
+    if (c.size == kHistory) history = std::max(history, c.at(kHistory - 1).t_ns - c.lead_ns);
+    if (config::RoleIsFlag(static_cast<Role>(i))) continue;
     const int64_t newest = c.newest().t_ns;
     if (now_ns - c.shift_ns - newest <= c.timeout_ns) t_end = std::min(t_end, newest - c.lead_ns);
   }
-  return t_end;
+  return std::min(latest, std::max(t_end, history));
 }
 
 void SignalSync::Flush(std::vector<Sample>& out) noexcept { EmitUntil(last_seen_ns_, out); }

@@ -138,7 +138,7 @@ TEST(Validity, ASlowIrregularImuMessageKeepsEgRight) {
   // ... and a missing effect is not published as a wrong valid EG: a hidden 1.5 deg steering
   // offset either leaves a_y unexplained or keeps the truth within 3 sigma. (The slow bus's floor
   // is that of one noisy sample per frame, 0.051 against 0.031 m/s^2 on the fast bus where two
-  // sync samples average into one fit sample, so the same misfit reads 4.1 x there, not 7.6 x.)
+  // sync samples average into one fit sample, so the same misfit reads 4.2 x there, not 7.6 x.)
   ReplayTweaks slow{.identify_every_s = 0, .mass_schedule_kg = {}, .yaw_rate_output = true, .lowpass_hz = 0,
                     .message_cycle_ms = {{"ESP_DYNAMICS", 80}}, .frame_loss_pct = 15, .timeout_s = 0.5};
   SimulatedRun run = SimulateAndReplay("validity_slow_missing", 205, 0.7, {"steer_offset_deg=1.5"}, {"road_bank", "gyro_offset"}, slow);

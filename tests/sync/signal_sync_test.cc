@@ -72,6 +72,34 @@ TEST(SignalSync, WaitsForASlowIrregularRoleWithinItsTimeout) {
   EXPECT_EQ(s.MeanInterval_s(Role::kYawRate), 0.0);  // never seen
 }
 
+// Catches: a wait for a very slow role (every 2 s, timeout 3 s) that outlasts the fast roles'
+// history, which would leave them nothing to interpolate from: the grid then goes on with the
+// slow role held, every sample valid and the fast ramps exact.
+TEST(SignalSync, AWaitNeverOutlastsTheFastRolesHistory) {
+  config::Config cfg = TestConfig();
+  cfg.roles[static_cast<int>(Role::kLateralAcceleration)]->timeout_s = 3.0;
+  SignalSync s(cfg);
+  std::vector<Sample> out;
+  for (int64_t t = 1000; t <= 12000; ++t) {
+    s.Advance(t * kMs, out);
+    if (t % 10 == 0) s.PushRole(Role::kSteeringWheelAngle, t * kMs, 0.001 * t);
+    if (t % 20 == 3) s.PushRole(Role::kSpeed, t * kMs, 10.0 + 0.002 * t);
+    if (t % 2000 == 7) s.PushRole(Role::kLateralAcceleration, t * kMs, 1.0);
+    if (t % 10 == 5) s.PushValidity(0, t * kMs, 1.0);
+    if (t % 100 == 1) s.PushRole(Role::kReverseGear, t * kMs, 0.0);
+  }
+  int checked = 0;
+  for (const Sample& x : out) {
+    const double t_ms = x.t_ns / 1e6;
+    if (t_ms < 2100) continue;
+    ASSERT_TRUE(x.valid) << t_ms;
+    EXPECT_NEAR(x.steer_rad, 0.001 * t_ms, 1e-9) << t_ms;
+    EXPECT_NEAR(x.lat_accel_mps2, 1.0, 1e-12) << t_ms;
+    ++checked;
+  }
+  EXPECT_GT(checked, 800);  // 2.1 s .. about 10.7 s (the last 1.3 s wait for the slow role or the end)
+}
+
 // Catches: interpolation that is off by a phase (a lag between roles is a fake time skew).
 TEST(SignalSync, InterpolatesRampsExactlyOnTheGrid) {
   const auto cfg = TestConfig();

@@ -46,7 +46,7 @@ class SignalSync {
   int64_t period_ns() const noexcept { return period_ns_; }
 
  private:
-  static constexpr int kHistory = 32;
+  static constexpr int kHistory = 128;  // values kept per role: a wait for a slow role reads back
   struct Point {
     int64_t t_ns;
     double value;
