@@ -44,6 +44,14 @@ std::vector<can::CanFrame> ReadAll(const std::string& path) {
   return frames;
 }
 
+// One drive of seed 4 with the simulation YAML `yaml`.
+config::SimulationConfig OneDrive(const std::string& yaml) {
+  config::SimulationConfig cfg = config::ParseSimulationConfig(yaml, "bus.yaml");
+  cfg.duration.drives = 1;
+  cfg.seed = 4;
+  return cfg;
+}
+
 class CandumpWriterTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -180,10 +188,8 @@ TEST_F(CandumpWriterTest, BusSignalsMapQuantitiesOntoAnotherDbcInItsUnits) {
       " SG_ Steer : 16|16@1- (0.001,0) [-32|32] \"rad\" X\n"
       " SG_ Other : 32|16@1- (0.01,0) [-300|300] \"deg\" X\n";
   const dbc::Database other = dbc::ParseDbcText(text, "other.dbc");
-  config::SimulationConfig cfg = config::ParseSimulationConfig(
-      "bus:\n  signals:\n    vehicle_speed: MOTION.Spd\n    steering_wheel_angle: MOTION.Steer\n", "bus.yaml");
-  cfg.duration.drives = 1;
-  cfg.seed = 4;
+  const config::SimulationConfig cfg =
+      OneDrive("bus:\n  signals:\n    vehicle_speed: MOTION.Spd\n    steering_wheel_angle: MOTION.Steer\n");
   const SimulationResult sim = Simulate(cfg);
   FrameEncoder encoder(other, cfg);
   ASSERT_EQ(encoder.messages().size(), 1u);
@@ -227,10 +233,7 @@ TEST_F(CandumpWriterTest, BusSignalMissingFromTheDbcIsAConfigError) {
 // whole cycles), the ECU's counter advancing over each loss. Catches an override ignored, losses
 // that reorder or retime frames, a counter that hides the gap.
 TEST_F(CandumpWriterTest, MessageCyclesAndFrameLossGiveIrregularIntervals) {
-  config::SimulationConfig cfg = config::ParseSimulationConfig(
-      "bus:\n  message_cycle_ms: {ESP_DYNAMICS: 80}\n  frame_loss_pct: 20\n", "bus.yaml");
-  cfg.duration.drives = 1;
-  cfg.seed = 4;
+  const config::SimulationConfig cfg = OneDrive("bus:\n  message_cycle_ms: {ESP_DYNAMICS: 80}\n  frame_loss_pct: 20\n");
   const SimulationResult r = Simulate(cfg);
   FrameEncoder encoder(db_, cfg);
   std::vector<int64_t> t;

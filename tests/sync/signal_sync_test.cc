@@ -25,17 +25,23 @@ sync: {rate_hz: 100, latency_s: 0.05, max_fill_gap_s: 1.0}
 
 constexpr int64_t kMs = 1'000'000;
 
-// Feeds linear ramps at 3 rates/phases (steering 100 Hz, speed 50 Hz offset 3 ms, a_y 80 Hz)
-// from t0 to t1 [ms], advancing the clock as frames would.
-void FeedRamps(SignalSync& s, std::vector<Sample>& out, int64_t t0, int64_t t1) {
+// Feeds linear ramps (steering 100 Hz, speed 50 Hz offset 3 ms) and a_y where `a_y` gives a value
+// at t [ms] (NaN: no frame), from t0 to t1 [ms], advancing the clock as frames would.
+template <typename AyAt>
+void Feed(SignalSync& s, std::vector<Sample>& out, int64_t t0, int64_t t1, AyAt a_y) {
   for (int64_t t = t0; t <= t1; ++t) {  // 1 ms steps
     s.Advance(t * kMs, out);
     if (t % 10 == 0) s.PushRole(Role::kSteeringWheelAngle, t * kMs, 0.001 * t);
     if (t % 20 == 3) s.PushRole(Role::kSpeed, t * kMs, 10.0 + 0.002 * t);
-    if (t % 12 == 7) s.PushRole(Role::kLateralAcceleration, t * kMs, -0.5 + 0.0005 * t);
+    if (const double a = a_y(t); !std::isnan(a)) s.PushRole(Role::kLateralAcceleration, t * kMs, a);
     if (t % 10 == 5) s.PushValidity(0, t * kMs, 1.0);
     if (t % 100 == 1) s.PushRole(Role::kReverseGear, t * kMs, 0.0);
   }
+}
+
+// The ramps with a_y at 80 Hz (every 12 ms, offset 7 ms).
+void FeedRamps(SignalSync& s, std::vector<Sample>& out, int64_t t0, int64_t t1) {
+  Feed(s, out, t0, t1, [](int64_t t) { return t % 12 == 7 ? -0.5 + 0.0005 * static_cast<double>(t) : NAN; });
 }
 
 // Catches: a role slower than the sync latency held at its older value instead of interpolated
@@ -48,14 +54,9 @@ TEST(SignalSync, WaitsForASlowIrregularRoleWithinItsTimeout) {
   SignalSync s(cfg);
   std::vector<Sample> out;
   int a_frames = 0;
-  for (int64_t t = 1000; t <= 4000; ++t) {
-    s.Advance(t * kMs, out);
-    if (t % 10 == 0) s.PushRole(Role::kSteeringWheelAngle, t * kMs, 0.001 * t);
-    if (t % 20 == 3) s.PushRole(Role::kSpeed, t * kMs, 10.0 + 0.002 * t);
-    if (t % 80 == 7 && ++a_frames % 3 != 0) s.PushRole(Role::kLateralAcceleration, t * kMs, -0.5 + 0.0005 * t);
-    if (t % 10 == 5) s.PushValidity(0, t * kMs, 1.0);
-    if (t % 100 == 1) s.PushRole(Role::kReverseGear, t * kMs, 0.0);
-  }
+  Feed(s, out, 1000, 4000, [&](int64_t t) {
+    return t % 80 == 7 && ++a_frames % 3 != 0 ? -0.5 + 0.0005 * static_cast<double>(t) : NAN;
+  });
   int checked = 0;
   for (const Sample& x : out) {
     const double t_ms = x.t_ns / 1e6;
@@ -80,14 +81,7 @@ TEST(SignalSync, AWaitNeverOutlastsTheFastRolesHistory) {
   cfg.roles[static_cast<int>(Role::kLateralAcceleration)]->timeout_s = 3.0;
   SignalSync s(cfg);
   std::vector<Sample> out;
-  for (int64_t t = 1000; t <= 12000; ++t) {
-    s.Advance(t * kMs, out);
-    if (t % 10 == 0) s.PushRole(Role::kSteeringWheelAngle, t * kMs, 0.001 * t);
-    if (t % 20 == 3) s.PushRole(Role::kSpeed, t * kMs, 10.0 + 0.002 * t);
-    if (t % 2000 == 7) s.PushRole(Role::kLateralAcceleration, t * kMs, 1.0);
-    if (t % 10 == 5) s.PushValidity(0, t * kMs, 1.0);
-    if (t % 100 == 1) s.PushRole(Role::kReverseGear, t * kMs, 0.0);
-  }
+  Feed(s, out, 1000, 12000, [](int64_t t) { return t % 2000 == 7 ? 1.0 : NAN; });
   int checked = 0;
   for (const Sample& x : out) {
     const double t_ms = x.t_ns / 1e6;
