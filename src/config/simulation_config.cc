@@ -146,7 +146,11 @@ class MapReader {
     };
   }
   void Text(const char* key, std::string& out) {
-    handlers_[key] = [&out](const YAML::Node& v) { out = v.as<std::string>(); };
+    handlers_[key] = [this, &out, key](const YAML::Node& v) {
+      if (v.IsNull()) out.clear();
+      else if (!v.IsScalar()) Fail(v, std::string("expected a text for ") + path_ + key);
+      else out = v.Scalar();
+    };
   }
   void NumberList(const char* key, std::vector<double>& out) {
     handlers_[key] = [this, &out, key](const YAML::Node& v) {
@@ -174,7 +178,7 @@ class MapReader {
           Fail(kv.second, std::string("expected a number in ") + path_ + key);
         }
         if (!std::isfinite(x)) Fail(kv.second, std::string("not finite: ") + path_ + key);
-        out[kv.first.as<std::string>()] = x;
+        out[KeyOf(kv.first)] = x;
       }
     };
   }
@@ -188,11 +192,16 @@ class MapReader {
   void Run() {
     if (!node_ || node_.IsNull()) return;
     for (const auto& kv : node_) {
-      const std::string key = kv.first.as<std::string>();
+      const std::string key = KeyOf(kv.first);
       const auto it = handlers_.find(key);
       if (it == handlers_.end()) Fail(kv.first, "unknown key '" + path_ + key + "'");
       it->second(kv.second);
     }
+  }
+  // A mapping's key as text (a sequence or mapping as a key is an error at its place).
+  std::string KeyOf(const YAML::Node& k) const {
+    if (!k.IsScalar()) Fail(k, "expected a text key in " + (path_.empty() ? std::string("the file") : path_));
+    return k.Scalar();
   }
   [[noreturn]] void Fail(const YAML::Node& at, const std::string& message) const {
     const YAML::Mark m = at.Mark();
@@ -293,7 +302,11 @@ SimulationConfig ParseSimulationConfig(std::string_view yaml_text, const std::st
     for (const auto& e : EffectTable()) m.Number(e.name, c.effects.*e.field);
     m.NumberList("mass_schedule_kg", c.effects.mass_schedule_kg);
   });
-  r.Run();
+  try {
+    r.Run();
+  } catch (const YAML::Exception& e) {  // a conversion no handler anticipated: located all the same
+    throw ConfigError(FormatLocation(file_name, e.mark.line + 1, e.mark.column + 1, e.msg));
+  }
   for (auto it = c.bus.signals.begin(); it != c.bus.signals.end();) it = it->second.empty() ? c.bus.signals.erase(it) : std::next(it);
   ValidateSimulationConfig(c);
   return c;
