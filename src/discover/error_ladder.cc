@@ -263,14 +263,16 @@ bool ErrorLadder::TryCandidate(const CandidateScore& c, std::vector<EgRelevant>&
   const std::string contradicts = PriorContradiction(fit_, f2, ladder_config_.priors);
   if (!contradicts.empty()) better = false;
   const std::string undetermined = UndeterminedParameters(*library_.Get(c.effect), f2, options_.determined_z);
-  t.accepted = better && dbic < 0 && undetermined.empty();
+  const std::string on_bound = ParametersOnTheirBounds(*library_.Get(c.effect), f2);
+  const std::string implausible = undetermined + (undetermined.empty() || on_bound.empty() ? "" : ", ") + on_bound;
+  t.accepted = better && dbic < 0 && implausible.empty();
   RecordEgShift(t, fit_, f2);
-  const bool eg_moves = both && !t.accepted && contradicts.empty() && IsEgRelevant(t, options_);
+  const bool eg_moves = both && !t.accepted && contradicts.empty() && on_bound.empty() && IsEgRelevant(t, options_);
   t.why = ExplainTrial(t, better, both, eg_moves, contradicts, options_.min_relative_improvement);
-  if (better && dbic < 0 && !undetermined.empty()) {
+  if (better && dbic < 0 && !implausible.empty()) {
     char why[160];
     std::snprintf(why, sizeof why, " (held-out RMSE %+.1f %%, dBIC %.1f)", 100 * (after / before - 1), dbic);
-    t.why = "rejected: " + undetermined + why;
+    t.why = "rejected: " + implausible + why;
   }
   ladder_.trials.push_back(t);
   if (eg_moves) eg_relevant.push_back({ladder_.trials.size() - 1, dbic, r});

@@ -121,4 +121,19 @@ std::string UndeterminedParameters(const model::Effect& effect, const identify::
   return out;
 }
 
+std::string ParametersOnTheirBounds(const model::Effect& effect, const identify::IdentificationResult& fit) {
+  std::string out;
+  for (const model::EffectParam& p : effect.info().params) {
+    if (p.per_drive) continue;
+    const auto e = std::find_if(fit.effect_params.begin(), fit.effect_params.end(),
+                                [&](const identify::ParameterEstimate& x) { return x.name == p.name; });
+    if (e == fit.effect_params.end() || e->fixed || !e->at_bound) continue;
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "%s = %.4g %s is on its bound [%.4g, %.4g] (not physically plausible)", p.name.c_str(),
+                  e->value, e->unit.c_str(), p.lower, p.upper);
+    out += (out.empty() ? "" : ", ") + std::string(buf);
+  }
+  return out;
+}
+
 }  // namespace ndsid::discover

@@ -64,6 +64,12 @@ std::string AlignmentRejection(const identify::IdentificationResult& recorded, c
 // parameters that do not, in words.
 std::string UndeterminedParameters(const model::Effect& effect, const identify::IdentificationResult& fit, double z);
 
+// The plausibility rule: no parameter of `effect` in `fit` (but the per-drive and fixed ones)
+// ended on its box. The box is the physically plausible range: a parameter the data push onto its
+// edge stands in for something else (another effect, a time skew, an effect outside the library).
+// "" when none, else the parameters on their bounds, in words.
+std::string ParametersOnTheirBounds(const model::Effect& effect, const identify::IdentificationResult& fit);
+
 // The speed scale read from a_x is added first when neither held-out RMSE rises by more than 1 %.
 bool KeepsSpeedScale(const Trial& t, bool both);
 

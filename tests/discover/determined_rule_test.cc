@@ -2,6 +2,7 @@
 // of its parameters lies more than determined_z standard errors from its neutral value.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "ndsid/discover/diagnosis.h"
@@ -46,6 +47,40 @@ TEST(DeterminationRule, AnEffectIsAddedOnlyWhenItsParameterIsDetermined) {
     EXPECT_FALSE(trial->accepted);
     EXPECT_NE(trial->why.find("steer_offset_rad"), std::string::npos) << trial->why;
     EXPECT_NE(trial->why.find("(not determined)"), std::string::npos) << trial->why;
+  }
+}
+
+// Catches: a ladder that adds an effect whose parameter the data push onto its box (the box is the
+// physically plausible range; a value on its edge stands in for something else). An accelerometer
+// bias of 3 m/s^2, beyond accel_bias's +-2 m/s^2: the refit lowers the held-out RMSE, yet it is
+// rejected as not plausible and the model stays as it was; a bias of 1 m/s^2 inside the box is
+// added. Two seeds.
+TEST(PlausibilityRule, AnEffectOnItsBoundIsNotAdded) {
+  const model::ModelSpec spec = model::ModelSpec::FromNames({"accel_bias"});
+  for (uint64_t seed : {53u, 54u}) {
+    auto climb = [&](double bias) {
+      std::vector<double> truth = TruthVector();
+      truth.push_back(bias);
+      const auto train = SyntheticSegmentsWithEffects(spec, truth, 12, 60, 0.05, seed);
+      const auto valid = SyntheticSegmentsWithEffects(spec, truth, 3, 60, 0.05, seed + 100);
+      discover::LadderOptions o;
+      o.align = false;
+      o.max_steps = 1;
+      o.diagnosis.candidates = {"accel_bias"};
+      return discover::ClimbErrorLadder(DefaultIdentificationConfig(), kWheelbase, {"road_bank"}, model::EffectLibrary::Builtin(),
+                                        Pointers(train), Pointers(valid), o);
+    };
+    const discover::Ladder inside = climb(1.0);
+    ASSERT_EQ(inside.rungs.size(), 2u) << seed;
+    EXPECT_EQ(inside.rungs[1].added, "accel_bias");
+
+    const discover::Ladder beyond = climb(3.0);
+    EXPECT_EQ(beyond.rungs.size(), 1u) << seed;
+    const auto trial = std::find_if(beyond.trials.begin(), beyond.trials.end(), [](const auto& t) { return t.effect == "accel_bias"; });
+    ASSERT_NE(trial, beyond.trials.end());
+    EXPECT_FALSE(trial->accepted);
+    EXPECT_LT(trial->held_out_after, trial->held_out_before) << trial->why;  // the error falls, the value is implausible
+    EXPECT_NE(trial->why.find("on its bound"), std::string::npos) << trial->why;
   }
 }
 
