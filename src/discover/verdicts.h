@@ -9,8 +9,9 @@
 
 namespace ndsid::discover {
 
-// A refit of the final rung that was not added and moves EG by more than
-// LadderOptions::eg_relevant_shift_rel and eg_unsettled_sigma of its standard error.
+// A refit of the final rung that was not added, moves EG by more than
+// LadderOptions::eg_relevant_shift_rel and eg_unsettled_sigma of its standard error, and raises no
+// fitted output's held-out RMSE by more than eg_unsettled_rmse_ratio.
 bool LeavesEgUnsettled(const Trial& t, int final_step, const LadderOptions& options);
 
 // Ladder::eg_unsettled: "" when no refit of the final rung leaves EG unsettled, else which do and

@@ -8,6 +8,7 @@
 
 #include "ndsid/discover/diagnosis.h"
 #include "synthetic_segments.h"
+#include "verdicts.h"
 
 namespace ndsid::testing {
 namespace {
@@ -94,6 +95,26 @@ TEST(EgRelevantRule, ACandidateThatMovesEgButIsNotAddedLeavesEgUnsettled) {
   const discover::Ladder l = Climb(train, valid, {"roll"}, /*eg_relevant_min_improvement=*/1.0);  // neither rule can add
   ASSERT_EQ(l.rungs.size(), 1u);
   EXPECT_NE(l.eg_unsettled.find("roll"), std::string::npos) << l.eg_unsettled;
+}
+
+// Catches: "EG not settled" raised by a refit the held-out data reject (on a real handling-track set,
+// gyro_delay and steer_delay moved EG by -44 % and -48 % while raising the held-out a_y by 68 % and
+// 88 %). The rule on one trial of the final rung: moving EG 40 % (10 sigma) with the held-out
+// errors flat unsettles EG; the same move with the held-out a_y or yaw rate 5 % worse does not.
+TEST(EgRelevantRule, ARefitTheHeldOutDataRejectDoesNotUnsettleEg) {
+  const discover::LadderOptions o;
+  discover::Trial t{.step = 2, .effect = "gyro_delay", .accepted = false, .held_out_before = 0.32, .held_out_after = 0.321,
+                    .yaw_before = 0.0025, .yaw_after = 0.0025, .delta_bic = 10, .eg_shift_rel = -0.40, .eg_shift_sigma = -10};
+  EXPECT_TRUE(discover::LeavesEgUnsettled(t, 2, o));
+  discover::Trial worse_a = t;
+  worse_a.held_out_after = 1.05 * t.held_out_before;
+  EXPECT_FALSE(discover::LeavesEgUnsettled(worse_a, 2, o));
+  discover::Trial worse_r = t;
+  worse_r.yaw_after = 1.05 * t.yaw_before;
+  EXPECT_FALSE(discover::LeavesEgUnsettled(worse_r, 2, o));
+  discover::Trial a_only = worse_r;
+  a_only.yaw_before = a_only.yaw_after = -1;  // a_y alone: no yaw-rate error to judge
+  EXPECT_TRUE(discover::LeavesEgUnsettled(a_only, 2, o));
 }
 
 }  // namespace

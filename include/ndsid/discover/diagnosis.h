@@ -114,8 +114,11 @@ struct LadderOptions {
   double speed_scale_add_sigma = 3.0;
   // After the ladder: a candidate refitted at the last rung and not added that moves EG by more
   // than eg_relevant_shift_rel and this many of its standard errors leaves EG unsettled
-  // (Ladder::eg_unsettled): the data do not decide between two models whose EGs differ.
+  // (Ladder::eg_unsettled): the data do not decide between two models whose EGs differ. A refit
+  // that raises a fitted output's held-out RMSE by more than eg_unsettled_rmse_ratio is one the
+  // data reject (as model_choice rules such an alternative out) and does not count.
   double eg_unsettled_sigma = 3.0;
+  double eg_unsettled_rmse_ratio = 1.02;
   DiagnosisOptions diagnosis;
   // Step 0 (physics.md §5): estimate each role's latency relative to a_y and climb the ladder
   // on data shifted by the significant ones.
