@@ -110,12 +110,7 @@ class MapReader {
   }
   void Number(const char* key, double& out) {
     handlers_[key] = [this, &out, key](const YAML::Node& v) {
-      try {
-        out = v.as<double>();
-      } catch (const YAML::Exception&) {
-        Fail(v, std::string("expected a number for ") + path_ + key);
-      }
-      if (!std::isfinite(out)) Fail(v, std::string("not finite: ") + path_ + key);
+      out = FiniteNumber(v, std::string("expected a number for ") + path_ + key, path_ + key);
     };
   }
   void Integer(const char* key, int& out) {
@@ -170,16 +165,8 @@ class MapReader {
     handlers_[key] = [this, &out, key](const YAML::Node& v) {
       if (!v.IsMap()) Fail(v, std::string("expected a mapping of names to numbers for ") + path_ + key);
       out.clear();
-      for (const auto& kv : v) {
-        double x = 0;
-        try {
-          x = kv.second.as<double>();
-        } catch (const YAML::Exception&) {
-          Fail(kv.second, std::string("expected a number in ") + path_ + key);
-        }
-        if (!std::isfinite(x)) Fail(kv.second, std::string("not finite: ") + path_ + key);
-        out[KeyOf(kv.first)] = x;
-      }
+      for (const auto& kv : v)
+        out[KeyOf(kv.first)] = FiniteNumber(kv.second, std::string("expected a number in ") + path_ + key, path_ + key);
     };
   }
   void Map(const char* key, std::function<void(MapReader&)> fill) {
@@ -197,6 +184,17 @@ class MapReader {
       if (it == handlers_.end()) Fail(kv.first, "unknown key '" + path_ + key + "'");
       it->second(kv.second);
     }
+  }
+  // A finite number, else a located error: `expected` when it is not a number, "not finite: <where>".
+  double FiniteNumber(const YAML::Node& v, const std::string& expected, const std::string& where) const {
+    double x = 0;
+    try {
+      x = v.as<double>();
+    } catch (const YAML::Exception&) {
+      Fail(v, expected);
+    }
+    if (!std::isfinite(x)) Fail(v, "not finite: " + where);
+    return x;
   }
   // A mapping's key as text (a sequence or mapping as a key is an error at its place).
   std::string KeyOf(const YAML::Node& k) const {
