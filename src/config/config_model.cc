@@ -1,5 +1,4 @@
-// The configuration's model section: the effects, the formula effects and the priors; and the
-// fleet prior of identification.prior_from.
+// The configuration's model section: the effects, the formula effects and the priors.
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -7,7 +6,6 @@
 #include <sstream>
 
 #include "config_sections.h"
-#include "ndsid/common/atomic_file.h"
 
 namespace ndsid::config {
 namespace {
@@ -100,47 +98,6 @@ void ReadModel(const YamlReader& m, Config& c) {
     m.Raw("priors");
   }
   m.Finish();
-}
-
-void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicle, IdentificationConfig& ic) {
-  const std::string& file = ic.prior_from;
-  auto fail = [&](const std::string& why) {
-    throw ConfigError(config_path + ": identification.prior_from: " + file + ": " + why);
-  };
-  YAML::Node root;
-  try {
-    root = YAML::Load(ReadWholeFile(file, 1 << 20));
-  } catch (const YAML::Exception& e) {
-    fail("YAML syntax at line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
-  } catch (const Error& e) {
-    fail(e.what());
-  }
-  if (!root.IsMap() || !root["parameters"] || !root["parameters"].IsMap()) fail("not a fleet prior (needs 'parameters')");
-  // The fleet's keys (docs/fleet.md): per kilogram of the vehicle's mass for Jz, cv, ch.
-  struct Key {
-    const char* param;
-    const char* fleet;
-    bool per_kg;
-  };
-  static const Key kKeys[] = {{"Jz", "Jz_per_m", true}, {"cv", "cv_per_m", true}, {"ch", "ch_per_m", true},
-                              {"lv", "lv", false}, {"is", "is", false}};
-  for (const Key& k : kKeys) {
-    const YAML::Node p = root["parameters"][k.fleet];
-    if (!p) continue;
-    if (std::any_of(ic.priors.begin(), ic.priors.end(), [&](const ParameterPrior& q) { return q.name == k.param; })) continue;
-    double mean = 0, sd = 0;
-    try {
-      mean = p["mean"].as<double>();
-      sd = p["sd"].as<double>();
-    } catch (const YAML::Exception&) {
-      fail(std::string("parameters.") + k.fleet + " needs numbers 'mean' and 'sd'");
-    }
-    const double scale = k.per_kg ? vehicle.mass_kg : 1.0;
-    if (!std::isfinite(mean) || !std::isfinite(sd) || !(mean > 0) || !(sd > 0) || mean * scale > kMaxPhysical) {
-      fail(std::string("parameters.") + k.fleet + ": a prior needs a positive finite mean and sd > 0");
-    }
-    ic.priors.push_back({k.param, mean * scale, std::max(sd * scale, 1e-9 * mean * scale), file});
-  }
 }
 
 }  // namespace ndsid::config

@@ -149,5 +149,49 @@ TEST(ConfigConditioning, AFleetPriorJoinsThePriorsScaledToThisVehiclesMass) {
   std::filesystem::remove_all(dir);
 }
 
+// Catches: a fleet table named with its group not resolved to the group's prior beside it, a
+// prior from another version of the table (its size and CRC-32 recorded) accepted, a group's
+// name not mapped to its folder as `ndsid fleet` writes it, or a missing group or mismatch
+// accepted without a located error.
+TEST(ConfigConditioning, AFleetTableWithItsGroupReadsThatGroupsPriorWhileTheTableIsUnchanged) {
+  const auto dir = std::filesystem::temp_directory_path() / ("ndsid_prior_table_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir / "out" / "groups" / "cmax_2019");
+  auto write = [&](const std::filesystem::path& p, const std::string& text) { std::ofstream(p) << text; };
+  write(dir / "out" / "fleet.parquet", "123456789");  // CRC-32 cbf43926, the standard check value
+  write(dir / "out" / "groups" / "cmax_2019" / "fleet_prior.yaml",
+        "group: cmax 2019\nsource: {table: fleet.parquet, bytes: 9, crc32: cbf43926}\n"
+        "parameters:\n  ch_per_m: {mean: 60, sd: 3}\n  is: {mean: 15.5, sd: 0.2}\n");
+  const std::string car = (dir / "car.yaml").string();
+  const std::string y = std::string(kMinimal) + "identification: {prior_from: out/fleet.parquet, prior_group: cmax 2019}\n";
+  const Config c = ParseConfig(y, car);
+  ASSERT_EQ(c.identification.priors.size(), 2u);
+  EXPECT_EQ(c.identification.priors[0].name, "ch");
+  EXPECT_DOUBLE_EQ(c.identification.priors[0].value, 60 * 1500);
+  EXPECT_DOUBLE_EQ(c.identification.priors[1].sd, 0.2);
+
+  auto error = [&](const std::string& yaml) {
+    try {
+      ParseConfig(yaml, car);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  std::string e = error(std::string(kMinimal) + "identification: {prior_from: out/fleet.parquet}\n");
+  EXPECT_NE(e.find("identification.prior_group"), std::string::npos) << e;
+  e = error(std::string(kMinimal) + "identification: {prior_from: out/fleet.parquet, prior_group: van}\n");
+  EXPECT_NE(e.find("no prior for this group"), std::string::npos) << e;
+  e = error(std::string(kMinimal) + "identification: {prior_group: van}\n");
+  EXPECT_NE(e.find("needs prior_from"), std::string::npos) << e;
+  e = error(std::string(kMinimal) + "identification: {prior_from: out/groups/cmax_2019/fleet_prior.yaml, prior_group: van}\n");
+  EXPECT_NE(e.find("is the prior of group 'cmax 2019', not of 'van'"), std::string::npos) << e;
+
+  write(dir / "out" / "fleet.parquet", "123456780");  // same size, other content
+  e = error(y);
+  EXPECT_NE(e.find("another version of"), std::string::npos) << e;
+  EXPECT_NE(e.find("python -m ndsid fleet prior --fleet"), std::string::npos) << e;
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace ndsid::config

@@ -118,9 +118,11 @@ struct ParameterPrior {
 struct IdentificationConfig {
   std::array<ParameterSpec, 6> params;  // order of ndsid::model::ParamIndex
   std::vector<ParameterPrior> priors;   // from model.priors; applied when the model has the parameter
-  // identification.prior_from: a fleet prior (fleet_prior.yaml of `ndsid fleet`, docs/fleet.md)
-  // whose parameters join `priors` where model.priors does not name them; resolved path, "" = none.
+  // identification.prior_from: a fleet prior (a group's fleet_prior.yaml of `ndsid fleet`, or its
+  // fleet.parquet with prior_group; docs/fleet.md) whose parameters join `priors` where
+  // model.priors does not name them; resolved path, "" = none.
   std::string prior_from;
+  std::string prior_group;  // identification.prior_group: the group of the fleet table's prior
   double rate_hz = 50.0;        // decimated rate of the dynamic fit
   double burn_in_s = 1.5;       // residuals discarded at each chunk start (unknown initial state)
   double chunk_s = 60.0;        // long segments are simulated in independent chunks of this length

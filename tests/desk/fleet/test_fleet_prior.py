@@ -13,7 +13,11 @@ has no yaw rate (a_y alone: alone it needs hours).
   columns and in the estimate's notes; and a vehicle like its group must not be.
 """
 import os
+import shutil
+import subprocess
+import sys
 
+import pandas as pd
 import pytest
 import yaml
 
@@ -32,14 +36,19 @@ TOLERANCE = 0.01     # EG within 1 % of the truth with the prior
 
 
 @pytest.fixture(scope="module")
-def prior(tmp_path_factory):
+def group(tmp_path_factory):
     root = str(tmp_path_factory.mktemp("group"))
     for k in range(GROUP):
         fleet_sim.make_vehicle(root, f"cmax-{k + 1:02d}", "cmax", Variant(), logs=1, hours_per_log=GROUP_HOURS, seed=100 + k)
     r = ndsid.fleet(dir=root, out=str(tmp_path_factory.mktemp("group_out")), workers=2)
     assert r.exit_code == 0, r.table[["vehicle", "error"]]
     assert r.table["valid"].all(), r.table[["vehicle", "reason"]]
-    return r.priors["cmax"]
+    return root, r
+
+
+@pytest.fixture(scope="module")
+def prior(group):
+    return group[1].priors["cmax"]
 
 
 def _new_vehicle(root, name, variant, seed, prior, a_y_only=False):
@@ -90,3 +99,40 @@ def test_loaded_vehicle_contradicts_its_prior(prior, tmp_path):
         assert d["conflict"], (seed, d)
         notes = est["identifiability"]["notes"]
         assert any("contradicts" in n for n in notes), notes
+
+
+def _priors_close(got: dict, want: dict) -> bool:
+    return set(got) == set(want) and all(
+        abs(got[n]["value"] - want[n]["value"]) <= 1e-9 * abs(want[n]["value"]) and
+        abs(got[n]["sd"] - want[n]["sd"]) <= 1e-9 * want[n]["sd"] for n in want)
+
+
+def test_a_configuration_naming_the_fleet_table_reads_its_groups_prior(group, tmp_path):
+    """Catches: prior_from: fleet.parquet + prior_group not reading the prior that ndsid fleet
+    derived from that table's rows, a table changed afterwards accepted with the old prior, and
+    `fleet prior --fleet T --group G` not writing the prior of the table as it is now."""
+    root, r = group
+    shutil.copytree(r.out, tmp_path / "out")  # the module's fleet stays as it was
+    table = str(tmp_path / "out" / "fleet.parquet")
+    with open(os.path.join(root, "cmax-01", "vehicle.yaml")) as f:
+        cfg = yaml.safe_load(f)
+    cfg["identification"] = dict(cfg.get("identification") or {}, prior_from=table, prior_group="cmax")
+    path = str(tmp_path / "new.yaml")
+    with open(path, "w") as f:
+        yaml.safe_dump(cfg, f)
+    mass = fleet_sim.CLASSES["cmax"]["mass_kg"]
+    assert _priors_close(ndsid.load_config(path)["priors"], fleet_prior.priors_for_config(r.priors["cmax"], mass))
+
+    # The table without its first vehicle: the written prior no longer comes from it.
+    fewer = pd.read_parquet(table).iloc[1:]
+    fewer.to_parquet(table, index=False)
+    with pytest.raises(ndsid.ConfigError, match="another version of"):
+        ndsid.load_config(path)
+    done = subprocess.run([sys.executable, "-m", "ndsid", "fleet", "prior", "--fleet", table, "--group", "cmax"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    again = fleet_prior.group_prior(fewer, "cmax")
+    assert again["vehicles"] == sorted(fewer["vehicle"]) and len(again["vehicles"]) == GROUP - 1
+    assert _priors_close(ndsid.load_config(path)["priors"], fleet_prior.priors_for_config(again, mass))
+    assert not _priors_close(fleet_prior.priors_for_config(again, mass),
+                             fleet_prior.priors_for_config(r.priors["cmax"], mass))

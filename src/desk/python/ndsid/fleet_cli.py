@@ -4,6 +4,7 @@
                           [--with diagnose,study,compare] [--no-progress]
     python -m ndsid fleet prior (--fleet OUT/fleet.parquet --group G | --prior fleet_prior.yaml)
                                 --config car.yaml --out car_with_prior.yaml
+    python -m ndsid fleet prior --fleet OUT/fleet.parquet --group G     (OUT/groups/G/fleet_prior.yaml again)
     python -m ndsid fleet simulate --out FOLDER [--classes cmax,van] [--per-class 3] [--logs 2] [--drives 3] [--seed 1]
 
 Exit status: 0 every vehicle identified, 1 some failed (each with its error in its row), 78 a
@@ -65,9 +66,14 @@ def _prior(argv: list[str]) -> int:
     src.add_argument("--fleet", help="a fleet's fleet.parquet (with --group)")
     src.add_argument("--prior", help="a fleet_prior.yaml")
     p.add_argument("--group", help="the group of the new vehicle (with --fleet)")
-    p.add_argument("--config", required=True, help="the new vehicle's configuration")
-    p.add_argument("--out", required=True, help="the configuration to write (with model.priors)")
+    p.add_argument("--config", help="the new vehicle's configuration (without it, with --fleet: write the group's "
+                                    "fleet_prior.yaml beside the table again)")
+    p.add_argument("--out", help="the configuration to write (with model.priors)")
     a = p.parse_args(argv)
+    if a.config is not None and a.out is None:
+        p.error("--config needs --out")
+    if a.config is None and not a.fleet:
+        p.error("--prior needs --config and --out")
     try:
         if a.fleet:
             import pandas as pd
@@ -77,6 +83,9 @@ def _prior(argv: list[str]) -> int:
             if prior is None:
                 raise ndsid.ConfigError(f"{a.fleet}: group {a.group!r} has fewer than {fleet_prior.MIN_VEHICLES} "
                                         "valid vehicles with every parameter free and off its bounds")
+            if a.config is None:
+                print(f"{fleet_prior.write_group_prior(a.fleet, prior)}: the prior of group {a.group} from {a.fleet}")
+                return 0
         else:
             prior = fleet_prior.load_prior(a.prior)
         mass = ndsid.load_config(a.config)["vehicle"]["mass_kg"]

@@ -11,6 +11,9 @@ For a configuration it is scaled back by that vehicle's mass (priors_for_config)
 from __future__ import annotations
 
 import math
+import os
+import re
+import zlib
 from typing import Iterable, Optional
 
 import numpy as np
@@ -72,8 +75,32 @@ def prior_yaml(prior: dict) -> str:
     import yaml
     head = ("# Fleet prior of one group (docs/fleet.md): per parameter the group's mean and the spread a\n"
             "# new vehicle of the group is predicted with; Jz, cv, ch per kg of the vehicle's mass.\n"
-            "# Apply: python -m ndsid fleet prior --prior THIS --config car.yaml --out car_with_prior.yaml\n")
+            "# Apply: identification.prior_from: THIS (or the fleet.parquet it names with prior_group), or\n"
+            "#        python -m ndsid fleet prior --prior THIS --config car.yaml --out car_with_prior.yaml\n")
     return head + yaml.safe_dump(prior, sort_keys=False)
+
+
+def group_folder(group: str) -> str:
+    """The group's folder name under OUT/groups/ (ndsid reads it there for prior_group)."""
+    return re.sub(r"[^A-Za-z0-9._-]", "_", group) or "_"
+
+
+def table_source(table_path: str) -> dict:
+    """What a group prior records of the fleet table it comes from: ndsid checks the size and
+    CRC-32 when a configuration names the table (identification.prior_from + prior_group)."""
+    with open(table_path, "rb") as f:
+        data = f.read()
+    return {"table": os.path.basename(table_path), "bytes": len(data), "crc32": f"{zlib.crc32(data):08x}"}
+
+
+def write_group_prior(table_path: str, prior: dict) -> str:
+    """OUT/groups/<group>/fleet_prior.yaml beside the fleet table, with the table's source."""
+    folder = os.path.join(os.path.dirname(os.path.abspath(table_path)), "groups", group_folder(prior["group"]))
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, "fleet_prior.yaml")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(prior_yaml(dict(prior, source=table_source(table_path))))
+    return path
 
 
 def load_prior(path: str) -> dict:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -134,10 +133,7 @@ def write_outputs(records: list[dict], out: str, *, wall_s: float, computed: int
         if prior is None:
             continue
         priors[group] = prior
-        folder = os.path.join(out, "groups", re.sub(r"[^A-Za-z0-9._-]", "_", group) or "_")
-        os.makedirs(folder, exist_ok=True)
-        with open(os.path.join(folder, "fleet_prior.yaml"), "w", encoding="utf-8") as f:
-            f.write(fleet_prior.prior_yaml(prior))
+        fleet_prior.write_group_prior(os.path.join(out, "fleet.parquet"), prior)
     write_report(table, priors, os.path.join(out, "fleet-report.html"))
     failed = table.loc[table["error"] != "", "vehicle"].tolist()
     return FleetResult(table, drives, out, failed, computed, wall_s, priors)
