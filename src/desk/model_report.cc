@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "ndsid/common/atomic_file.h"
+#include "ndsid/common/format.h"
 #include "ndsid/config/truth_file.h"
 #include "ndsid/dbc/dbc_parser.h"
 #include "ndsid/identify/model_output.h"
@@ -321,18 +322,21 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
     white = std::sqrt(std::max(0.0, var) / 2.0);
     rmse = ne ? std::sqrt(see / ne) : 0.0;
   };
+  // A role slower than the fit reads its floor low by this much (identify::SlowOutputFloorFactor).
+  const double slow_a = identify::SlowOutputFloorFactor(data.window.a_y_interval_s, data.config.identification.rate_hz);
+  const double slow_r = identify::SlowOutputFloorFactor(data.window.yaw_rate_interval_s, data.config.identification.rate_hz);
   for (size_t m = 0; m < nm; ++m) {
     c.train.push_back(Figures(c.rows, m, false));
     c.validation.push_back(Figures(c.rows, m, true));
     double white = 0, rmse = 0;
     white_and_rmse(m, false, white, rmse);
-    c.white_noise.push_back(white);
+    c.white_noise.push_back(white * slow_a);
     c.overall_rmse.push_back(rmse);
     if (c.has_yaw_rate) {
       c.yaw_train.push_back(Figures(c.rows, m, false, true));
       c.yaw_validation.push_back(Figures(c.rows, m, true, true));
       white_and_rmse(m, true, white, rmse);
-      c.yaw_white_noise.push_back(white);
+      c.yaw_white_noise.push_back(white * slow_r);
       c.yaw_overall_rmse.push_back(rmse);
     }
   }
@@ -342,6 +346,7 @@ Comparison Compare(const ReplayedData& data, std::vector<FittedModel> models, st
   } else {
     c.noise_floor = *std::min_element(c.white_noise.begin(), c.white_noise.end());
     c.noise_floor_source = "white part of the residual, sqrt(var(diff e)/2), smallest over the models";
+    if (slow_a > 1) c.noise_floor_source += Fmt(", x %.2f for a_y's values %.2f fit samples apart", slow_a, slow_a);
   }
   if (c.has_yaw_rate) c.yaw_noise_floor = *std::min_element(c.yaw_white_noise.begin(), c.yaw_white_noise.end());
   auto bins = [&](bool yaw) {

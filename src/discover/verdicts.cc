@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "ndsid/common/format.h"
 #include "ndsid/identify/model_output.h"
 
 namespace ndsid::discover {
@@ -24,14 +25,16 @@ struct ResidualSums {
   }
 };
 
-// The verdict on one output; g: the floor's correction for a read between samples (1: none).
-OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, double to_unit, double ratio_limit, double g) {
+// The verdict on one output; g: the floor's correction for a read between samples (1: none);
+// slow: its factor for a role slower than the fit (1: none).
+OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, double to_unit, double ratio_limit, double g,
+                    double slow) {
   OutputVerdict v;
   v.output = name;
   v.unit = unit;
   v.residuals = s.n;
   v.rmse = to_unit * std::sqrt(s.ss / static_cast<double>(s.n));
-  v.floor = to_unit * std::sqrt(s.dd / (2.0 * static_cast<double>(s.nd)) / g);
+  v.floor = slow * to_unit * std::sqrt(s.dd / (2.0 * static_cast<double>(s.nd)) / g);
   v.ratio = v.floor > 0 ? v.rmse / v.floor : 0.0;
   v.unexplained = v.floor > 0 && v.ratio > ratio_limit;
   char buf[400];
@@ -46,6 +49,7 @@ OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, d
                   name, v.rmse, unit, v.ratio, v.floor, unit, ratio_limit);
   }
   v.text = buf;
+  if (slow > 1) v.text += Fmt(" (its floor x %.2f: its values come %.2f fit samples apart)", slow, slow);
   return v;
 }
 
@@ -53,7 +57,7 @@ OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, d
 
 std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, const std::vector<double>& params,
                                         const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit,
-                                        double yaw_shift_samples) {
+                                        double yaw_shift_samples, double a_y_floor_factor, double yaw_floor_factor) {
   ResidualSums a, r;
   for (const identify::ChunkOutput& c : identify::SimulateChunks(identifier, params, segments)) {
     std::vector<double> ea, er;
@@ -77,8 +81,8 @@ std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, 
   // floor uncorrected.
   const double w = yaw_shift_samples - std::floor(yaw_shift_samples);
   const double g_yaw = ((1 - w) * (1 - w) + (1 - 2 * w) * (1 - 2 * w) + w * w) / 2;
-  if (a.nd > 0) out.push_back(Judge(a, "a_y", "m/s^2", 1.0, ratio_limit, 1.0));
-  if (r.nd > 0) out.push_back(Judge(r, "yaw rate", "deg/s", 180.0 / M_PI, ratio_limit, g_yaw));
+  if (a.nd > 0) out.push_back(Judge(a, "a_y", "m/s^2", 1.0, ratio_limit, 1.0, a_y_floor_factor));
+  if (r.nd > 0) out.push_back(Judge(r, "yaw rate", "deg/s", 180.0 / M_PI, ratio_limit, g_yaw, yaw_floor_factor));
   return out;
 }
 

@@ -168,4 +168,9 @@ bool SetTrainingFit(const OptimumSums& s, const OutputWeights& weights, bool inc
   return true;
 }
 
+double SlowOutputFloorFactor(double interval_s, double rate_hz) {
+  const double p = interval_s * rate_hz;
+  return p > 1 && std::isfinite(p) ? p : 1.0;
+}
+
 }  // namespace ndsid::identify

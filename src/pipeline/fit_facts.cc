@@ -30,7 +30,7 @@ std::pair<double, double> Spreads(const WindowSnapshot& snap) {
 
 void ScaleFloorsForSlowRoles(const WindowSnapshot& snap, double fit_rate_hz, identify::IdentificationResult& fit) {
   auto scale = [&](const char* output, double interval_s, double& floor) {
-    const double p = interval_s * fit_rate_hz;
+    const double p = identify::SlowOutputFloorFactor(interval_s, fit_rate_hz);
     if (!(p > 1) || !(floor > 0)) return;
     floor *= p;
     fit.identifiability.notes.push_back(Fmt("%s's noise floor x %.2f: it comes every %.0f ms, %.2f fit samples, and noise interpolated between "

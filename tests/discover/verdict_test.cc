@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "ndsid/discover/diagnosis.h"
 #include "synthetic_segments.h"
@@ -134,6 +135,52 @@ TEST(OutputVerdict, YawRateFloorCorrectedForTheAlignmentShift) {
       EXPECT_LT(raw[1].floor, 0.9 * r.floor) << "the uncorrected floor should be biased low at w " << w;
     }
   }
+}
+
+// Clean segments whose a_y noise comes from a role `period` fit samples apart: white noise drawn
+// at every period-th sample and interpolated between them, as the sync stage reads a slow message.
+std::vector<stats::Segment> SlowAyNoise(int count, int period, uint64_t seed) {
+  std::vector<stats::Segment> segs = SyntheticSegments(count, 60.0, 0.0, seed);
+  std::mt19937_64 rng(seed + 7);
+  std::normal_distribution<double> gauss(0.0, kNoiseA);
+  for (stats::Segment& seg : segs) {
+    double before = gauss(rng), after = gauss(rng);
+    for (size_t k = 0; k < seg.samples.size(); ++k) {
+      if (k > 0 && k % period == 0) before = after, after = gauss(rng);
+      const double w = static_cast<double>(k % period) / period;
+      seg.samples[k].lat_accel_mps2 += static_cast<float>((1 - w) * before + w * after);
+    }
+  }
+  return segs;
+}
+
+// Catches: diagnose's verdict not scaling the floor of a role slower than the fit (clean data
+// called unexplained at about 0.8 x the period), or scaling one that is not slow.
+TEST(OutputVerdict, ASlowRolesFloorIsScaledByItsPeriod) {
+  for (uint64_t seed : {221, 222}) {
+    const auto train = SlowAyNoise(12, 4, seed);
+    const auto valid = SlowAyNoise(4, 4, seed + 100);
+    discover::LadderOptions o;
+    o.align = false;
+    o.max_steps = 1;
+    o.diagnosis.candidates = {"steer_offset"};
+    const discover::Ladder as_if_fast = discover::ClimbErrorLadder(Cfg(false), kWheelbase, {}, model::EffectLibrary::Builtin(),
+                                                                   Pointers(train), Pointers(valid), o);
+    o.a_y_floor_factor = identify::SlowOutputFloorFactor(0.08, 50.0);  // 12.5 Hz against the fit's 50 Hz
+    EXPECT_DOUBLE_EQ(o.a_y_floor_factor, 4.0);
+    const discover::Ladder slow = discover::ClimbErrorLadder(Cfg(false), kWheelbase, {}, model::EffectLibrary::Builtin(),
+                                                             Pointers(train), Pointers(valid), o);
+    const auto& fast_v = Verdict(as_if_fast, "a_y");
+    const auto& slow_v = Verdict(slow, "a_y");
+    std::printf("  seed %llu: as if fast %s\n  scaled %s\n", static_cast<unsigned long long>(seed), fast_v.text.c_str(),
+                slow_v.text.c_str());
+    EXPECT_TRUE(fast_v.unexplained) << fast_v.text;
+    EXPECT_FALSE(slow_v.unexplained) << slow_v.text;
+    EXPECT_NEAR(slow_v.floor, kNoiseA, 0.25 * kNoiseA);
+    EXPECT_NE(slow_v.text.find("its floor x 4.00"), std::string::npos) << slow_v.text;
+  }
+  EXPECT_DOUBLE_EQ(identify::SlowOutputFloorFactor(0.01, 50.0), 1.0);  // faster than the fit
+  EXPECT_DOUBLE_EQ(identify::SlowOutputFloorFactor(0.0, 50.0), 1.0);   // unknown
 }
 
 }  // namespace

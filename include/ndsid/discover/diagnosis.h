@@ -129,6 +129,10 @@ struct LadderOptions {
   // After the ladder stops, an output whose held-out RMSE is more than this times its noise
   // floor (the white part of its residual) is reported unexplained (OutputVerdict).
   double unexplained_ratio = 1.5;
+  // Each output's noise-floor factor for a role slower than the fit
+  // (identify::SlowOutputFloorFactor of its mean frame interval; 1: at the fit's rate or faster).
+  double a_y_floor_factor = 1.0;
+  double yaw_floor_factor = 1.0;
   // A valid fit of the starting model on these very training and held-out segments (the
   // pipeline's own after a replay, as `ndsid diagnose` has it): the ladder starts from it instead
   // of fitting the same model again. Ignored when it is not valid or describes another model.
@@ -156,9 +160,12 @@ struct OutputVerdict {
 // model `identifier.spec()` at `params` over `segments`. yaw_shift_samples: the shift step 0
 // applied to the measured yaw rate, in samples (0: none): reading it between samples averages
 // neighbouring noise, which lowers the first-difference floor; the floor is corrected for it.
+// a_y_floor_factor, yaw_floor_factor: the floors' factors for roles slower than the fit
+// (LadderOptions).
 std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, const std::vector<double>& params,
                                         const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit,
-                                        double yaw_shift_samples = 0);
+                                        double yaw_shift_samples = 0, double a_y_floor_factor = 1.0,
+                                        double yaw_floor_factor = 1.0);
 
 // One candidate refitted by the ladder: what it did to the held-out error, and why it was kept
 // or rejected (the stop message's "no candidate improved" lists these).

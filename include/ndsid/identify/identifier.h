@@ -74,6 +74,12 @@ using DriveOverrides = std::map<int64_t, std::vector<std::pair<int, double>>>;
 // The values laid out for `spec` (by parameter name; parameters it lacks are dropped).
 DriveOverrides OverridesFor(const std::vector<DriveValue>& values, const model::ModelSpec& spec);
 
+// How many times too low the lag-one noise floor of an output reads when its role's values come
+// every `interval_s` and the fit samples at `rate_hz`: noise interpolated between frames
+// P = interval_s x rate_hz fit samples apart is that much smoother. 1 at or above the fit's rate
+// (and for an unknown interval). The pipeline, diagnose's verdicts and compare all scale by it.
+double SlowOutputFloorFactor(double interval_s, double rate_hz);
+
 struct IdentificationResult {
   bool valid = false;
   std::string reason;  // why not valid (no data, solver failure, non-finite)

@@ -322,6 +322,9 @@ discover::LadderOptions MakeLadderOptions(const DiagnoseArgs& a, const Candidate
   opt.diagnosis.candidates_extend_library = candidates.extend;
   opt.diagnosis.z_threshold = a.z_threshold;
   opt.unexplained_ratio = a.unexplained_ratio;
+  const double rate_hz = data.config.identification.rate_hz;
+  opt.a_y_floor_factor = identify::SlowOutputFloorFactor(data.window.a_y_interval_s, rate_hz);
+  opt.yaw_floor_factor = identify::SlowOutputFloorFactor(data.window.yaw_rate_interval_s, rate_hz);
   opt.align = !a.no_align;
   opt.standstill = data.window.standstill;
   opt.speed_scale_evidence = stats::EstimateSpeedScale(data.window.training);
