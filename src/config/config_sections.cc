@@ -152,8 +152,7 @@ void ReadIdentification(const YamlReader& id, const std::string& base_dir, const
   ReadParams(id, vehicle, ic);
   ic.prior_from = Resolve(base_dir, id.String("prior_from", ""));
   ic.prior_group = id.String("prior_group", "");
-  const bool table = ic.prior_from.size() > 8 && ic.prior_from.compare(ic.prior_from.size() - 8, 8, ".parquet") == 0;
-  if (table && ic.prior_group.empty()) id.Fail("prior_group", "names the group whose prior prior_from's fleet table holds");
+  if (NamesFleetTable(ic.prior_from) && ic.prior_group.empty()) id.Fail("prior_group", "names the group whose prior prior_from's fleet table holds");
   if (!ic.prior_group.empty() && ic.prior_from.empty()) id.Fail("prior_group", "needs prior_from (a fleet table)");
   ic.rate_hz = Ranged(id, "rate_hz", ic.rate_hz, 10, 200);
   ic.burn_in_s = Ranged(id, "burn_in_s", ic.burn_in_s, 1e-3, 600);

@@ -43,6 +43,8 @@ void ReadModel(const YamlReader& m, Config& c);
 // identification.prior_from: the fleet prior's parameters (Jz, cv, ch per kg of this vehicle's
 // mass; lv, is) as priors, where model.priors does not name them (called after ReadModel).
 void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicle, IdentificationConfig& ic);
+// Whether identification.prior_from names a fleet table (a .parquet file, read with prior_group).
+bool NamesFleetTable(const std::string& prior_from);
 // The top level's own keys: state_dir, state_unreadable, report_dir, log_level.
 void ReadTopLevel(const YamlReader& top, const std::string& base_dir, Config& c);
 

@@ -21,8 +21,9 @@ namespace {
 constexpr size_t kMaxPriorBytes = 1 << 20;
 constexpr size_t kMaxTableBytes = size_t{1} << 30;
 
-bool EndsWith(const std::string& s, const std::string& tail) {
-  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+// The command that writes a group's prior from the table as it is now.
+std::string WriteAgain(const IdentificationConfig& ic) {
+  return "python -m ndsid fleet prior --fleet " + ic.prior_from + " --group " + ic.prior_group;
 }
 
 // The group's folder name under OUT/groups/, as `ndsid fleet` writes it.
@@ -49,10 +50,10 @@ std::string Crc32Hex(const std::string& bytes) {
 }
 
 // The prior's `source` against the table it claims to come from.
-void CheckSource(const YAML::Node& root, const std::string& table, const std::string& group,
+void CheckSource(const YAML::Node& root, const IdentificationConfig& ic,
                  const std::function<void(const std::string&)>& fail) {
-  const std::string refresh = "; write the group's prior again: python -m ndsid fleet prior --fleet " + table +
-                              " --group " + group;
+  const std::string& table = ic.prior_from;
+  const std::string refresh = "; write the group's prior again: " + WriteAgain(ic);
   const YAML::Node src = root["source"];
   if (!src || !src.IsMap() || !src["crc32"] || !src["bytes"]) fail("records no source table" + refresh);
   std::string bytes;
@@ -77,8 +78,13 @@ void CheckSource(const YAML::Node& root, const std::string& table, const std::st
 
 }  // namespace
 
+bool NamesFleetTable(const std::string& prior_from) {
+  const std::string tail = ".parquet";
+  return prior_from.size() > tail.size() && prior_from.compare(prior_from.size() - tail.size(), tail.size(), tail) == 0;
+}
+
 void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicle, IdentificationConfig& ic) {
-  const bool from_table = EndsWith(ic.prior_from, ".parquet");
+  const bool from_table = NamesFleetTable(ic.prior_from);
   const std::string file =
       from_table ? (std::filesystem::path(ic.prior_from).parent_path() / "groups" / GroupFolder(ic.prior_group) /
                     "fleet_prior.yaml").string()
@@ -89,8 +95,7 @@ void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicl
   };
   if (from_table && !std::filesystem::exists(file)) {
     fail("no prior for this group beside the table (ndsid fleet writes one per group with at least 3 valid "
-         "vehicles; check the group's name, or write it: python -m ndsid fleet prior --fleet " + ic.prior_from +
-         " --group " + ic.prior_group + ")");
+         "vehicles; check the group's name, or write it: " + WriteAgain(ic) + ")");
   }
   YAML::Node root;
   try {
@@ -105,7 +110,7 @@ void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicl
       root["group"].Scalar() != ic.prior_group) {
     fail("is the prior of group '" + root["group"].Scalar() + "', not of '" + ic.prior_group + "'");
   }
-  if (from_table) CheckSource(root, ic.prior_from, ic.prior_group, fail);
+  if (from_table) CheckSource(root, ic, fail);
   // The fleet's keys (docs/fleet.md): per kilogram of the vehicle's mass for Jz, cv, ch.
   struct Key {
     const char* param;
