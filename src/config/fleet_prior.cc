@@ -136,6 +136,23 @@ void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicl
     }
     ic.priors.push_back({k.param, mean * scale, std::max(sd * scale, 1e-9 * mean * scale), where});
   }
+  // The group's EG: its vehicles' parameter errors are correlated (their EGs agree far better than
+  // their cv, ch and lv), which independent priors on the parameters cannot say.
+  const YAML::Node eg = root[kEgPriorName];
+  const bool configured = std::any_of(ic.priors.begin(), ic.priors.end(), [](const ParameterPrior& q) { return q.name == kEgPriorName; });
+  if (eg && !configured) {
+    double mean = 0, sd = 0;
+    try {
+      mean = eg["mean"].as<double>();
+      sd = eg["sd"].as<double>();
+    } catch (const YAML::Exception&) {
+      fail(std::string(kEgPriorName) + " needs numbers 'mean' and 'sd'");
+    }
+    if (!std::isfinite(mean) || !std::isfinite(sd) || !(sd > 0) || std::abs(mean) > kMaxPhysical) {
+      fail(std::string(kEgPriorName) + ": a prior needs a finite mean and sd > 0");
+    }
+    ic.priors.push_back({kEgPriorName, mean, sd, where});
+  }
 }
 
 }  // namespace ndsid::config

@@ -10,6 +10,10 @@
 #include "ndsid/stats/speed_scale.h"
 
 namespace ndsid::identify {
+namespace {
+// The base parameters EG depends on (model::SelfSteerGradient).
+constexpr int kEgParams[] = {model::kMass, model::kStiffFront, model::kStiffRear, model::kCgToFront};
+}  // namespace
 
 bool HasConfiguredPrior(const config::IdentificationConfig& config, const std::string& name) {
   return std::any_of(config.priors.begin(), config.priors.end(), [&](const config::ParameterPrior& pr) { return pr.name == name; });
@@ -63,11 +67,52 @@ void EvidencePriors::Add(const ParameterBox& box, int i, double value, double sd
 
 void EvidencePriors::AddConfigured(const FitSettings& settings, const ParameterBox& box) {
   for (const config::ParameterPrior& pr : settings.config.priors) {
+    if (pr.name == config::kEgPriorName) {
+      AddEgPrior(settings, box, pr);
+      continue;
+    }
     for (int i = 0; i < box.size(); ++i) {
       if (settings.spec.param_name(i) != pr.name || box.bounds[i].fixed) continue;
       Add(box, i, pr.value, pr.sd);
+      prior_notes_.push_back("prior on " + pr.name + ": " + std::to_string(pr.value) + " +- " + std::to_string(pr.sd) +
+                             " (model.priors); its standard error includes the prior");
     }
   }
+}
+
+// A prior on EG pulls the base parameters EG depends on (m, cv, ch, lv); none of them free: none.
+void EvidencePriors::AddEgPrior(const FitSettings& settings, const ParameterBox& box, const config::ParameterPrior& pr) {
+  const bool any_free = std::any_of(std::begin(kEgParams), std::end(kEgParams), [&](int i) { return !box.bounds[i].fixed; });
+  if (!any_free) return;
+  const double to_rad = 1.0 / model::EgToDegPerG(1.0);
+  costs_.push_back(std::make_unique<EgPriorCost>(box.size(), box.scale, settings.wheelbase_m, pr.value * to_rad, pr.sd * to_rad));
+  char note[200];
+  std::snprintf(note, sizeof note, "prior on EG: %.4g +- %.2g deg/g (model.priors); its standard error includes the prior",
+                pr.value, pr.sd);
+  prior_notes_.push_back(note);
+}
+
+bool EgPriorCost::Evaluate(double const* const* p, double* r, double** jac) const {
+  Eigen::VectorXd row(parameter_block_sizes()[0]);
+  r[0] = sqrt_w_ * Standardised(p[0], row);
+  if (jac && jac[0]) Eigen::Map<Eigen::VectorXd>(jac[0], row.size()) = sqrt_w_ * row;
+  return true;
+}
+
+void EgPriorCost::AddInformation(const double* theta, Eigen::MatrixXd& info) const {
+  Eigen::VectorXd row(parameter_block_sizes()[0]);
+  Standardised(theta, row);
+  info += row * row.transpose();
+}
+
+double EgPriorCost::Standardised(const double* theta, Eigen::VectorXd& row) const {
+  using Jet6 = ceres::Jet<double, 6>;
+  model::Params<Jet6> p{Jet6(theta[0] * scale_[0], 0), Jet6(theta[1] * scale_[1], 1), Jet6(theta[2] * scale_[2], 2),
+                        Jet6(theta[3] * scale_[3], 3), Jet6(theta[4] * scale_[4], 4), Jet6(theta[5] * scale_[5], 5)};
+  const Jet6 eg = model::SelfSteerGradient(p, wheelbase_m_);
+  row.setZero();
+  for (int i = 0; i < model::kNumParams; ++i) row[i] = eg.v[i] * scale_[i] / sd_;
+  return (eg.a - value_) / sd_;
 }
 
 // Standstill evidence: a prior from the stops of the training drives on gyro_offset and
@@ -129,20 +174,18 @@ void EvidencePriors::SetWeight(double level) {
   for (auto& pc : costs_) pc->set_weight(weight_);
 }
 
-Eigen::MatrixXd EvidencePriors::InformationTheta(const std::vector<int>& free) const {
+Eigen::MatrixXd EvidencePriors::InformationTheta(const double* theta, const std::vector<int>& free) const {
   const int nf = static_cast<int>(free.size());
+  const Eigen::MatrixXd all = InformationAll(theta, costs_.empty() ? 0 : costs_.front()->parameter_block_sizes()[0]);
   Eigen::MatrixXd info = Eigen::MatrixXd::Zero(nf, nf);
-  for (const auto& pc : costs_) {
-    for (int a = 0; a < nf; ++a) {
-      if (free[a] == pc->index()) info(a, a) += pc->information_theta();
-    }
-  }
+  for (int a = 0; a < nf && !costs_.empty(); ++a)
+    for (int b = 0; b < nf; ++b) info(a, b) = all(free[a], free[b]);
   return info;
 }
 
-Eigen::MatrixXd EvidencePriors::InformationAll(int np) const {
+Eigen::MatrixXd EvidencePriors::InformationAll(const double* theta, int np) const {
   Eigen::MatrixXd info = Eigen::MatrixXd::Zero(np, np);
-  for (const auto& pc : costs_) info(pc->index(), pc->index()) += pc->information_theta();
+  for (const auto& pc : costs_) pc->AddInformation(theta, info);
   return info;
 }
 
@@ -160,16 +203,9 @@ void EvidencePriors::AddPull(const double* theta, Eigen::VectorXd& grad, Eigen::
   }
 }
 
-std::vector<std::string> EvidencePriors::Notes(const config::IdentificationConfig& config, const model::ModelSpec& spec) const {
+std::vector<std::string> EvidencePriors::Notes() const {
   std::vector<std::string> notes = evidence_notes_;
-  for (const auto& pc : costs_) {
-    for (const config::ParameterPrior& pr : config.priors) {
-      if (pr.name == spec.param_name(pc->index())) {
-        notes.push_back("prior on " + pr.name + ": " + std::to_string(pr.value) + " +- " + std::to_string(pr.sd) +
-                        " (model.priors); its standard error includes the prior");
-      }
-    }
-  }
+  notes.insert(notes.end(), prior_notes_.begin(), prior_notes_.end());
   return notes;
 }
 

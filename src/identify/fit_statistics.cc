@@ -40,7 +40,7 @@ void FitStatistics::Covariance(bool incremental) {
     for (int b = 0; b < nf; ++b) jtj_f_(a, b) = sums_.jtj(free[a], free[b]);
   sigma2_ = sums_.rss / std::max<double>(1.0, static_cast<double>(sums_.n_res) - nf);
   // Prior information in theta space (zero without priors).
-  const Eigen::MatrixXd prior_info = priors_.InformationTheta(free);
+  const Eigen::MatrixXd prior_info = priors_.InformationTheta(theta.data(), free);
 
   // Gradient of EG with respect to theta (free base parameters), by forward-mode autodiff.
   using Jet6 = ceres::Jet<double, 6>;
@@ -158,7 +158,7 @@ void FitStatistics::Halves() {
   hc.scale = box_.scale;
   for (int i : box_.free)
     if (!AtBound(theta_[i] * box_.scale[i], box_.bounds[i].lower, box_.bounds[i].upper)) hc.free.push_back(i);
-  hc.prior_info = priors_.InformationAll(np_);
+  hc.prior_info = priors_.InformationAll(theta_.data(), np_);
   hc.noise_level = sigma2_ * tau_;
   hc.wheelbase_m = settings_.wheelbase_m;
   r_.halves = EstimateHalves(halves[0], halves[1], hc);

@@ -70,7 +70,7 @@ void FitStatistics::Identifiability(bool two_outputs, size_t chunks_with_yaw, si
   } else if (settings_.config.yaw_rate_output) {
     rep.notes.push_back("outputs: a_y alone (identification.outputs asks for the yaw rate, but no chunk has one)");
   }
-  for (const std::string& n : priors_.Notes(settings_.config, settings_.spec)) rep.notes.push_back(n);
+  for (const std::string& n : priors_.Notes()) rep.notes.push_back(n);
 }
 
 }  // namespace ndsid::identify

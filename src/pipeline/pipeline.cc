@@ -42,9 +42,10 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
       adequacy_(config.adequacy) {
   samples_.reserve(1024);
   timed_.reserve(sync::TimeBase::kConfirm + 2);
-  // model.priors must name a parameter of the base model, of a library effect or of a formula.
+  // model.priors must name a parameter of the base model, of a library effect or of a formula,
+  // or EG itself.
   if (config.identification.priors.empty()) return;
-  std::vector<std::string> known;
+  std::vector<std::string> known = {config::kEgPriorName};
   const model::ModelSpec base;
   for (int i = 0; i < base.num_params(); ++i) known.push_back(base.param_name(i));
   for (const auto& e : library_.names()) {
@@ -54,7 +55,8 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
   for (const config::ParameterPrior& pr : config.identification.priors) {
     if (std::find(known.begin(), known.end(), pr.name) == known.end()) {
       throw ConfigError(pr.location + ": model.priors: '" + pr.name +
-                        "' is not a parameter of the base model, a library effect or a formula");
+                        "' is not a parameter of the base model, a library effect or a formula, nor " +
+                        config::kEgPriorName);
     }
   }
 }
@@ -265,6 +267,31 @@ adequacy::PlausibilityReport Pipeline::CheckData(const WindowSnapshot& snap) con
   return r;
 }
 
+namespace {
+
+// How far the fit ended from model.priors (adequacy/prior_check.h): a note, and the check
+// `prior`; a fit that contradicts its priors is a compromise between them and the data, so it is
+// not valid (refit without them).
+void CheckPriors(const std::vector<config::ParameterPrior>& priors, Estimate& e) {
+  if (priors.empty()) return;
+  std::vector<adequacy::FittedParameter> fitted;
+  for (const auto& p : e.fit.params) fitted.push_back({p.name, p.value, p.fixed});
+  for (const auto& p : e.fit.effect_params) fitted.push_back({p.name, p.value, p.fixed});
+  fitted.push_back({config::kEgPriorName, e.fit.eg_deg_per_g, false});
+  const adequacy::PriorDistance d = adequacy::DistanceFromPriors(fitted, priors);
+  if (d.z.empty()) return;
+  e.fit.identifiability.notes.push_back(d.Note());
+  adequacy::Check c{.name = "prior", .value = d.distance, .message = d.Note()};
+  c.verdict = d.contradicts ? adequacy::Verdict::kFailed : adequacy::Verdict::kPassed;
+  e.plausibility.checks.push_back(c);
+  if (d.contradicts) {
+    e.fit.reason = e.fit.valid ? e.plausibility.Reason() : e.fit.reason + "; " + c.message;
+    e.fit.valid = false;
+  }
+}
+
+}  // namespace
+
 const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::IdentificationResult fit,
                                  const adequacy::PlausibilityReport* data_checks, const ModelChoice* choice) {
   last_fit_data_ns_ = snap.data_time_ns;
@@ -322,13 +349,7 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
       e.fit.reason = e.plausibility.Reason();
     }
   }
-  if (!config_.identification.priors.empty()) {  // how far the fit ended from model.priors
-    std::vector<adequacy::FittedParameter> fitted;
-    for (const auto& p : e.fit.params) fitted.push_back({p.name, p.value, p.fixed});
-    for (const auto& p : e.fit.effect_params) fitted.push_back({p.name, p.value, p.fixed});
-    const adequacy::PriorDistance d = adequacy::DistanceFromPriors(fitted, config_.identification.priors);
-    if (!d.z.empty()) e.fit.identifiability.notes.push_back(d.Note());
-  }
+  CheckPriors(config_.identification.priors, e);
   if (e.fit.valid) {
     e.adequacy = adequacy_.Update(snap.gated_hours, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2, snap.coverage);
     last_ = e;

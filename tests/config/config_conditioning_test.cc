@@ -160,14 +160,18 @@ TEST(ConfigConditioning, AFleetTableWithItsGroupReadsThatGroupsPriorWhileTheTabl
   write(dir / "out" / "fleet.parquet", "123456789");  // CRC-32 cbf43926, the standard check value
   write(dir / "out" / "groups" / "cmax_2019" / "fleet_prior.yaml",
         "group: cmax 2019\nsource: {table: fleet.parquet, bytes: 9, crc32: cbf43926}\n"
-        "parameters:\n  ch_per_m: {mean: 60, sd: 3}\n  is: {mean: 15.5, sd: 0.2}\n");
+        "parameters:\n  ch_per_m: {mean: 60, sd: 3}\n  is: {mean: 15.5, sd: 0.2}\n"
+        "eg_deg_per_g: {mean: 4.19, sd: 0.011}\n");
   const std::string car = (dir / "car.yaml").string();
   const std::string y = std::string(kMinimal) + "identification: {prior_from: out/fleet.parquet, prior_group: cmax 2019}\n";
   const Config c = ParseConfig(y, car);
-  ASSERT_EQ(c.identification.priors.size(), 2u);
+  ASSERT_EQ(c.identification.priors.size(), 3u);
   EXPECT_EQ(c.identification.priors[0].name, "ch");
   EXPECT_DOUBLE_EQ(c.identification.priors[0].value, 60 * 1500);
   EXPECT_DOUBLE_EQ(c.identification.priors[1].sd, 0.2);
+  EXPECT_EQ(c.identification.priors[2].name, kEgPriorName);  // the group's EG, in deg/g as written
+  EXPECT_DOUBLE_EQ(c.identification.priors[2].value, 4.19);
+  EXPECT_DOUBLE_EQ(c.identification.priors[2].sd, 0.011);
 
   auto error = [&](const std::string& yaml) {
     try {
@@ -185,6 +189,9 @@ TEST(ConfigConditioning, AFleetTableWithItsGroupReadsThatGroupsPriorWhileTheTabl
   EXPECT_NE(e.find("needs prior_from"), std::string::npos) << e;
   e = error(std::string(kMinimal) + "identification: {prior_from: out/groups/cmax_2019/fleet_prior.yaml, prior_group: van}\n");
   EXPECT_NE(e.find("is the prior of group 'cmax 2019', not of 'van'"), std::string::npos) << e;
+  write(dir / "out" / "groups" / "cmax_2019" / "bad.yaml", "parameters: {is: {mean: 15.5, sd: 0.2}}\neg_deg_per_g: {mean: 4.19, sd: 0}\n");
+  e = error(std::string(kMinimal) + "identification: {prior_from: out/groups/cmax_2019/bad.yaml}\n");
+  EXPECT_NE(e.find("eg_deg_per_g: a prior needs a finite mean and sd > 0"), std::string::npos) << e;
 
   write(dir / "out" / "fleet.parquet", "123456780");  // same size, other content
   e = error(y);

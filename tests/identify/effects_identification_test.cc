@@ -167,5 +167,43 @@ TEST(Priors, PriorResolvesAConfoundedEffectAndEntersTheCovariance) {
   EXPECT_GT(wrong.effect_params[0].value - k_right, (2 * k_true - k_right) / 3);
 }
 
+
+// Catches: a prior on EG itself (model.priors eg_deg_per_g, a fleet group's EG) that does not
+// act on the base parameters, or that the covariance ignores. The same confounded data as above
+// (a roll gradient the data cannot tell from EG's steady part), no prior on the roll gradient. A
+// prior on EG at the truth, as sure as the data, must give EG the sigma of the two combined
+// (1/s^2 = 1/s_data^2 + 1/s_prior^2, exact for a linearised fit; here within 15 % with the
+// autocorrelation and halves terms); a prior 5 % off must pull EG half of the way to it (the two
+// equally sure: 35-65 %).
+TEST(Priors, AnEgPriorPullsTheBaseParametersAndCombinesWithTheDatasSigma) {
+  const model::ModelSpec spec = model::ModelSpec::FromNames({"roll"});
+  const double k_true = 5 * M_PI / 180 / 9.81;
+  const std::vector<double> truth = {1900, 2700, 75000, 120000, 1.15, 14.8, k_true};
+  const double eg_true = model::EgToDegPerG(model::SelfSteerGradient(TruthParams(), kWheelbase));
+  for (const uint64_t seed : {21u, 23u}) {
+    const auto train = ndsid::testing::SyntheticSegmentsWithEffects(spec, truth, 20, 60, 0.05, seed);
+    auto fit = [&](double value, double sd) {
+      config::IdentificationConfig cfg = Cfg();
+      if (sd > 0) cfg.priors.push_back({config::kEgPriorName, value, sd, "test"});
+      const IdentificationResult r = Identifier(cfg, kWheelbase, spec).Identify(Pointers(train), {});
+      EXPECT_TRUE(r.valid) << r.reason;
+      return r;
+    };
+    const IdentificationResult alone = fit(0, 0);
+    const double s_prior = alone.eg_se_deg_per_g;
+    const IdentificationResult right = fit(eg_true, s_prior);
+    const double s_combined = 1 / std::sqrt(1 / (alone.eg_se_deg_per_g * alone.eg_se_deg_per_g) + 1 / (s_prior * s_prior));
+    std::printf("seed %d: alone EG %.4f +- %.4f; EG prior %.4f +- %.4f: EG %.4f +- %.4f (combined %.4f)\n", static_cast<int>(seed),
+                alone.eg_deg_per_g, alone.eg_se_deg_per_g, eg_true, s_prior, right.eg_deg_per_g, right.eg_se_deg_per_g, s_combined);
+    EXPECT_NEAR(right.eg_deg_per_g, eg_true, 2 * s_combined) << seed;
+    EXPECT_NEAR(right.eg_se_deg_per_g, s_combined, 0.15 * s_combined) << seed;
+    const IdentificationResult wrong = fit(1.05 * eg_true, s_prior);
+    const double pulled = (wrong.eg_deg_per_g - alone.eg_deg_per_g) / (1.05 * eg_true - alone.eg_deg_per_g);
+    std::printf("seed %d: a prior 5 %% off pulls EG %.0f %% of the way\n", static_cast<int>(seed), 100 * pulled);
+    EXPECT_GT(pulled, 0.35) << seed;
+    EXPECT_LT(pulled, 0.65) << seed;
+  }
+}
+
 }  // namespace
 }  // namespace ndsid::identify

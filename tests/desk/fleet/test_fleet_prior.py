@@ -10,7 +10,10 @@ has no yaw rate (a_y alone: alone it needs hours).
   than 3 of its sigma), and a data set on which the vehicle alone would already be as good.
 - test_loaded_vehicle_contradicts_its_prior catches a prior that hides a vehicle that really
   differs: 30 % more load (at the CG, so EG 30 % higher) must be flagged, in the fleet's
-  columns and in the estimate's notes; and a vehicle like its group must not be.
+  columns and in the estimate's notes, and not published valid; and a vehicle like its group
+  must not be.
+- test_long_drive_without_yaw_rate_keeps_an_honest_sigma catches a prior that biases EG beyond
+  its sigma where hours of data leave a parameter combination to it.
 """
 import os
 import shutil
@@ -51,8 +54,8 @@ def prior(group):
     return group[1].priors["cmax"]
 
 
-def _new_vehicle(root, name, variant, seed, prior, a_y_only=False):
-    v = fleet_sim.make_vehicle(str(root), name, "cmax", variant, logs=1, hours_per_log=NEW_HOURS, seed=seed)
+def _new_vehicle(root, name, variant, seed, prior, a_y_only=False, hours=NEW_HOURS):
+    v = fleet_sim.make_vehicle(str(root), name, "cmax", variant, logs=1, hours_per_log=hours, seed=seed)
     if a_y_only:  # a bus without a yaw rate: a_y fitted alone, no effect that needs the yaw rate
         with open(v["config"]) as f:
             cfg = yaml.safe_load(f)
@@ -82,8 +85,9 @@ def test_prior_reaches_one_percent_where_alone_does_not(prior, tmp_path):
         assert est["valid"], est["reason"]
         assert abs(err) < TOLERANCE * truth, seed
         assert abs(err) < 3 * se, seed  # an honest sigma
-        d = fleet_prior.prior_distance(est["parameters"], ndsid.load_config(cfg)["priors"])
+        d = fleet_prior.prior_distance(est["parameters"], ndsid.load_config(cfg)["priors"], est["eg_deg_per_g"])
         assert not d["conflict"], (seed, d)
+        assert _prior_check(est) == "passed"
         # Alone, 0.5 h does not reach 1 %: off by more, or a sigma that cannot promise it.
         alone_misses += abs(err_alone) > TOLERANCE * truth or 2 * se_alone > TOLERANCE * truth
     assert alone_misses == len(SEEDS)
@@ -93,12 +97,35 @@ def test_loaded_vehicle_contradicts_its_prior(prior, tmp_path):
     for seed in SEEDS[:2]:
         v, cfg = _new_vehicle(tmp_path, f"van-like-{seed}", Variant(load_pct=30), seed + 100, prior)
         est = ndsid.replay(cfg, v["logs"])["estimate"]
-        d = fleet_prior.prior_distance(est["parameters"], ndsid.load_config(cfg)["priors"])
+        d = fleet_prior.prior_distance(est["parameters"], ndsid.load_config(cfg)["priors"], est["eg_deg_per_g"])
         print(f"seed {seed + 100}: 30 % load: distance {d['distance']:.1f} (threshold {d['threshold']:.1f}), "
               f"z {', '.join(f'{k} {z:+.1f}' for k, z in d['z'].items())}")
         assert d["conflict"], (seed, d)
         notes = est["identifiability"]["notes"]
         assert any("contradicts" in n for n in notes), notes
+        assert not est["valid"], est  # a compromise between the prior and the data is not published valid
+        assert "contradicts them" in est["reason"], est["reason"]
+        assert _prior_check(est) == "failed"
+
+
+def test_long_drive_without_yaw_rate_keeps_an_honest_sigma(prior, tmp_path):
+    """Catches a prior that biases EG where the data leave a parameter combination to it: hours of
+    a_y alone pull cv, ch and lv along the data's direction while independent priors hold each
+    apart (before the prior carried the group's EG: -1.4 %, 3.8 sigma after 4.5 h, seed 201)."""
+    seed = 201
+    v, cfg = _new_vehicle(tmp_path, f"long-{seed}", Variant(), seed, prior, a_y_only=True, hours=4.5)
+    truth = v["truth_eg_deg_per_g"]
+    est = ndsid.replay(cfg, v["logs"])["estimate"]
+    err, se = est["eg_deg_per_g"] - truth, est["eg_se_deg_per_g"]
+    print(f"seed {seed}, 4.5 h, a_y alone, with prior: EG {est['eg_deg_per_g']:.4f} ± {se:.4f} "
+          f"({100 * err / truth:+.2f} %, z {err / se:+.2f}), truth {truth:.4f}")
+    assert est["valid"], est["reason"]
+    assert abs(err) < 3 * se
+
+
+def _prior_check(est: dict) -> str:
+    """The verdict of the estimate's check `prior` (its distance from model.priors)."""
+    return next(c["verdict"] for c in est["plausibility"]["checks"] if c["name"] == "prior")
 
 
 def _priors_close(got: dict, want: dict) -> bool:

@@ -6,7 +6,9 @@ units that carry over between them, per kilogram of the vehicle's (configured, f
 Jz, cv and ch, as they are for lv and is. Across the group's vehicles each parameter's mean and
 between-vehicle spread tau come from a random-effects estimate (DerSimonian-Laird: each vehicle
 weighted by 1/(se^2 + tau^2)); a new vehicle's parameter is predicted as N(mean, tau^2 + se(mean)^2).
-For a configuration it is scaled back by that vehicle's mass (priors_for_config).
+For a configuration it is scaled back by that vehicle's mass (priors_for_config). The group's EG,
+estimated the same way, becomes a prior on EG itself (model.priors.eg_deg_per_g): a vehicle's
+cv, ch and lv err together, so the group knows its EG far better than the parameters' spreads say.
 """
 from __future__ import annotations
 
@@ -24,6 +26,9 @@ UNITS = {"Jz_per_m": "m^2", "cv_per_m": "N/rad/kg", "ch_per_m": "N/rad/kg", "lv"
 # prior's standard deviations) happens by chance once in a thousand vehicles at most.
 CHI2_999 = {1: 10.83, 2: 13.82, 3: 16.27, 4: 18.47, 5: 20.52, 6: 22.46, 7: 24.32, 8: 26.12, 9: 27.88, 10: 29.59}
 MIN_VEHICLES = 3
+# model.priors' name of the prior on EG itself (deg/g): the group's EG is known far better than its
+# parameters' spread implies, because each vehicle's cv, ch and lv errors are correlated.
+EG_PRIOR = "eg_deg_per_g"
 
 
 def random_effects(x: Iterable[float], se: Iterable[float]) -> tuple[float, float, float]:
@@ -121,14 +126,21 @@ def priors_for_config(prior: dict, mass_kg: float) -> dict[str, dict]:
             continue
         scale = mass_kg if key.endswith("_per_m") else 1.0
         out[name] = {"value": p["mean"] * scale, "sd": max(p["sd"] * scale, 1e-9 * abs(p["mean"] * scale))}
+    eg = prior.get(EG_PRIOR)
+    if eg is not None:
+        out[EG_PRIOR] = {"value": eg["mean"], "sd": max(eg["sd"], 1e-9 * abs(eg["mean"]))}
     return out
 
 
-def prior_distance(parameters: list[dict], priors: dict[str, dict]) -> Optional[dict]:
-    """The posterior's distance from the prior: each prior parameter's z = (value - prior) / sd,
-    the Mahalanobis distance over them (the priors are independent, so sqrt(sum z^2)), and
-    whether it contradicts the prior (distance^2 above the chi-square 0.999 quantile)."""
+def prior_distance(parameters: list[dict], priors: dict[str, dict],
+                   eg_deg_per_g: Optional[float] = None) -> Optional[dict]:
+    """The posterior's distance from the prior: each prior parameter's (and, given the estimate's
+    EG, the EG prior's) z = (value - prior) / sd, the distance over them (sqrt(sum z^2), as ndsid
+    states it in the estimate's notes), and whether it contradicts the prior (distance^2 above
+    the chi-square 0.999 quantile)."""
     by_name = {p["name"]: p for p in parameters}
+    if eg_deg_per_g is not None:
+        by_name[EG_PRIOR] = {"name": EG_PRIOR, "value": eg_deg_per_g}
     z = {}
     for name, pr in priors.items():
         p = by_name.get(name)

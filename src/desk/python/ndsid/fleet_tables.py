@@ -103,7 +103,7 @@ def _prior_columns(table: pd.DataFrame, records: list[dict]) -> None:
             priors = ndsid.load_config(rec["config"]).get("priors") or {}
         except (ndsid.Error, OSError):
             continue
-        d = fleet_prior.prior_distance(est["parameters"], priors)
+        d = fleet_prior.prior_distance(est["parameters"], priors, est.get("eg_deg_per_g"))
         if d is None:
             continue
         table.loc[i, ["prior_distance", "prior_dof", "prior_conflict"]] = [d["distance"], d["dof"], d["conflict"]]
