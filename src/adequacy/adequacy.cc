@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 
 #include "ndsid/common/error.h"
+#include "ndsid/common/format.h"
 
 namespace ndsid::adequacy {
 
@@ -39,20 +39,38 @@ double Tracker::EgAt(double hours, bool& found) const {
   return eg;
 }
 
-Report Tracker::Update(double hours, double eg, double eg_se, const stats::Coverage& coverage) {
+PriorCredit CreditOf(double info_share, double data_hours, double eg_prior) {
+  if (!(info_share > 0) || !(data_hours > 0) || eg_prior == 0 || !std::isfinite(eg_prior)) return {};
+  const double hours = info_share >= 1 ? kMaxPriorHours : std::min(kMaxPriorHours, data_hours * info_share / (1 - info_share));
+  return {hours, eg_prior};
+}
+
+Report Tracker::Update(double hours, double eg, double eg_se, const stats::Coverage& coverage, const PriorCredit& prior) {
   Report r;
   r.gated_hours = hours;
+  r.prior_hours = prior.hours;
+  const double since = hours - config_.change_window_h;  // the change window's start
   // Coverage growth against the newest snapshot at least one change window old.
   const Snapshot* then = nullptr;
   for (const Snapshot& s : snapshots_) {
-    if (s.hours <= hours - config_.change_window_h + 1e-12) then = &s;
+    if (s.hours <= since + 1e-12) then = &s;
+  }
+  bool found = false;
+  double eg_then = EgAt(since, found);
+  if (!found && prior.hours > 0 && prior.eg != 0 && since >= -prior.hours - 1e-12) {
+    // The window reaches back past the first estimate into the prior's hours: EG against the
+    // prior's, coverage growth over the second half of the vehicle's own driving.
+    eg_then = prior.eg;
+    found = true;
+    r.change_from_prior = true;
+    for (const Snapshot& s : snapshots_) {
+      if (s.hours <= hours / 2 + 1e-12) then = &s;
+    }
   }
   if (then) {
     r.kl_growth = std::max(stats::KlDivergence(coverage.gg(), then->coverage.gg()),
                            stats::KlDivergence(coverage.v_ay(), then->coverage.v_ay()));
   }
-  bool found = false;
-  const double eg_then = EgAt(hours - config_.change_window_h, found);
   if (found && eg != 0) r.rel_change = std::abs(eg - eg_then) / std::abs(eg);
   if (eg != 0) r.rel_se = eg_se / std::abs(eg);
   history_.push_back({hours, eg, eg_se, r.kl_growth});
@@ -72,27 +90,28 @@ Report Tracker::Update(double hours, double eg, double eg_se, const stats::Cover
   } else {
     under_since_hours_ = -1;
   }
-  char buf[512];
+  const std::string moved =
+      r.change_from_prior
+          ? Fmt("EG moved %.2f %% from its priors' EG (the priors counted as %.2f h of driving, the last %.1f h reaching "
+                "into them)", 100 * r.rel_change, prior.hours, config_.change_window_h)
+          : Fmt("EG moved %.2f %% over the last %.1f h", 100 * r.rel_change, config_.change_window_h);
   if (r.rel_change < 0 || r.kl_growth < 0) {
     r.state = State::kCollecting;
-    std::snprintf(buf, sizeof buf, "%.2f gated h; need %.1f h of history before EG's change can be judged", hours,
-                  config_.change_window_h);
+    r.explanation = Fmt("%.2f gated h; need %.1f h of history before EG's change can be judged", hours,
+                        config_.change_window_h);
+    if (prior.hours > 0) r.explanation += Fmt(" (the priors count as %.2f h)", prior.hours);
   } else if (under && r.hours_under_tolerance >= config_.hold_h) {
     r.state = State::kAdequate;
-    std::snprintf(buf, sizeof buf,
-                  "EG moved %.2f %% over the last %.1f h, relative standard error %.2f %%, coverage growth %.4f nats: "
-                  "all under tolerance for %.1f h (hold %.1f h); more driving of this kind adds no information",
-                  100 * r.rel_change, config_.change_window_h, 100 * r.rel_se, r.kl_growth, r.hours_under_tolerance,
-                  config_.hold_h);
+    r.explanation = moved + Fmt(", relative standard error %.2f %%, coverage growth %.4f nats: all under tolerance for "
+                                "%.1f h (hold %.1f h); more driving of this kind adds no information",
+                                100 * r.rel_se, r.kl_growth, r.hours_under_tolerance, config_.hold_h);
   } else {
     r.state = State::kConverging;
-    std::snprintf(buf, sizeof buf,
-                  "EG moved %.2f %% over the last %.1f h (tolerance %.2f %%), relative standard error %.2f %%, "
-                  "coverage growth %.4f nats (threshold %.4f); under tolerance for %.1f of %.1f h",
-                  100 * r.rel_change, config_.change_window_h, 100 * config_.tolerance, 100 * r.rel_se, r.kl_growth,
-                  config_.kl_threshold, r.hours_under_tolerance, config_.hold_h);
+    r.explanation = moved + Fmt(" (tolerance %.2f %%), relative standard error %.2f %%, coverage growth %.4f nats "
+                                "(threshold %.4f); under tolerance for %.1f of %.1f h",
+                                100 * config_.tolerance, 100 * r.rel_se, r.kl_growth, config_.kl_threshold,
+                                r.hours_under_tolerance, config_.hold_h);
   }
-  r.explanation = buf;
   last_ = r;
   return r;
 }

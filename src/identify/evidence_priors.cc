@@ -57,6 +57,7 @@ std::vector<Identifier::StandstillPrior> Identifier::StandstillPriors(const std:
 void EvidencePriors::Build(const FitSettings& settings, const ParameterBox& box, const SegmentList& training,
                            const std::vector<gate::StandstillStop>& stops) {
   AddConfigured(settings, box);
+  configured_ = costs_.size();
   AddStandstill(settings, box, training, stops);
   AddSpeedScale(settings, box, training);
 }
@@ -174,18 +175,20 @@ void EvidencePriors::SetWeight(double level) {
   for (auto& pc : costs_) pc->set_weight(weight_);
 }
 
-Eigen::MatrixXd EvidencePriors::InformationTheta(const double* theta, const std::vector<int>& free) const {
+Eigen::MatrixXd EvidencePriors::InformationTheta(const double* theta, const std::vector<int>& free, bool configured_only) const {
   const int nf = static_cast<int>(free.size());
-  const Eigen::MatrixXd all = InformationAll(theta, costs_.empty() ? 0 : costs_.front()->parameter_block_sizes()[0]);
+  const Eigen::MatrixXd all =
+      InformationAll(theta, costs_.empty() ? 0 : costs_.front()->parameter_block_sizes()[0], configured_only);
   Eigen::MatrixXd info = Eigen::MatrixXd::Zero(nf, nf);
   for (int a = 0; a < nf && !costs_.empty(); ++a)
     for (int b = 0; b < nf; ++b) info(a, b) = all(free[a], free[b]);
   return info;
 }
 
-Eigen::MatrixXd EvidencePriors::InformationAll(const double* theta, int np) const {
+Eigen::MatrixXd EvidencePriors::InformationAll(const double* theta, int np, bool configured_only) const {
   Eigen::MatrixXd info = Eigen::MatrixXd::Zero(np, np);
-  for (const auto& pc : costs_) pc->AddInformation(theta, info);
+  const size_t n = configured_only ? configured_ : costs_.size();
+  for (size_t k = 0; k < n; ++k) costs_[k]->AddInformation(theta, info);
   return info;
 }
 

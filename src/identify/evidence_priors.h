@@ -92,10 +92,11 @@ class EvidencePriors {
   // residual's information), taken again wherever the output weights or the fit moved it.
   void SetWeight(double level);
   double weight() const { return weight_; }
-  // The priors' information in theta space at theta over the free parameters (zero without priors).
-  Eigen::MatrixXd InformationTheta(const double* theta, const std::vector<int>& free) const;
+  // The priors' information in theta space at theta over the free parameters (zero without
+  // priors); configured_only: model.priors' part alone (the vehicle's own evidence left out).
+  Eigen::MatrixXd InformationTheta(const double* theta, const std::vector<int>& free, bool configured_only = false) const;
   // The same over every parameter (np x np).
-  Eigen::MatrixXd InformationAll(const double* theta, int np) const;
+  Eigen::MatrixXd InformationAll(const double* theta, int np, bool configured_only = false) const;
   // Adds the priors' gradient (J'r) at theta into grad and their Gauss-Newton matrix J'J into
   // hessian (np each).
   void AddPull(const double* theta, Eigen::VectorXd& grad, Eigen::MatrixXd& hessian) const;
@@ -111,6 +112,7 @@ class EvidencePriors {
   void Add(const ParameterBox& box, int i, double value, double sd);
 
   std::vector<std::unique_ptr<PriorResidual>> costs_;  // one per prior, in the order built
+  size_t configured_ = 0;                              // the first this many are model.priors'
   std::vector<std::string> evidence_notes_;        // what the standstill and speed-scale evidence gave
   std::vector<std::string> prior_notes_;           // one per configured prior applied
   double weight_ = 0;                              // the noise level the priors are weighted with

@@ -63,6 +63,16 @@ void FitStatistics::Covariance(bool incremental) {
   // Classical: (J'J / (sigma^2 tau) + P)^-1; sandwich bread: (J'J + sigma^2 tau P)^-1.
   const Eigen::MatrixXd jtj_inv = (jtj_f_ + sigma2_ * tau_ * prior_info).completeOrthogonalDecomposition().pseudoInverse();
   cov_ = jtj_inv * sigma2_ * tau_;
+  const Eigen::MatrixXd configured_info = priors_.InformationTheta(theta.data(), free, true);
+  if (configured_info.squaredNorm() > 0) {
+    // EG's variance without model.priors (the data and the vehicle's own evidence), over that
+    // with them (both classical): model.priors' share of EG's information. A direction the rest
+    // leaves undetermined drops out of the pseudo-inverse, which can only lower the share.
+    const Eigen::MatrixXd own = jtj_f_ + sigma2_ * tau_ * (prior_info - configured_info);
+    const double with = eg_grad_.dot(jtj_inv * eg_grad_);
+    const double alone = eg_grad_.dot(own.completeOrthogonalDecomposition().pseudoInverse() * eg_grad_);
+    r_.eg_prior_info_share = alone > 0 && with > 0 ? std::clamp(1.0 - with / alone, 0.0, 1.0) : 0.0;
+  }
   char method[160];
   std::snprintf(method, sizeof method, "autocorrelation-corrected (tau=%.1f samples)", tau_);
   spdlog::debug("fit: sigma^2 {:.4g} over {} residuals, tau {:.2f}, rss {:.5g}, {} chunks ({} from the prior)", sigma2_,

@@ -58,6 +58,7 @@ nlohmann::json ResultToJson(const IdentificationResult& f) {
   j["se_method"] = f.se_method;
   j["eg_se_fit_rad_per_mps2"] = f.eg_se_fit_rad_per_mps2;  // before the halves widened it
   j["eg_bound_shift_rad_per_mps2"] = f.eg_bound_shift_rad_per_mps2;
+  if (f.eg_prior_info_share > 0) j["eg_prior_info_share"] = f.eg_prior_info_share;  // with priors only
   if (f.halves) j["halves"] = {HalfJson(f.halves->first), HalfJson(f.halves->second)};
   j["floor_a_y_mps2"] = f.floor_a_y_mps2;
   j["floor_yaw_radps"] = f.floor_yaw_radps;
@@ -121,6 +122,10 @@ IdentificationResult ResultFromJson(const JsonIn& in) {
   // The checks' facts (absent in states written before them).
   if (in.Has("eg_se_fit_rad_per_mps2")) f.eg_se_fit_rad_per_mps2 = in.Number("eg_se_fit_rad_per_mps2");
   if (in.Has("eg_bound_shift_rad_per_mps2")) f.eg_bound_shift_rad_per_mps2 = in.Number("eg_bound_shift_rad_per_mps2");
+  if (in.Has("eg_prior_info_share")) {
+    f.eg_prior_info_share = in.Number("eg_prior_info_share");
+    if (!(f.eg_prior_info_share >= 0 && f.eg_prior_info_share <= 1)) in.At("eg_prior_info_share").Fail("not in [0, 1]");
+  }
   if (in.Has("halves")) {
     const JsonIn h = in.At("halves");
     if (h.Size(2) != 2) h.Fail("not two halves");

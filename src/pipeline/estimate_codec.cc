@@ -99,6 +99,10 @@ nlohmann::json EstimateToJson(const Estimate& e) {
   j["adequacy"] = {{"state", adequacy::StateName(a.state)}, {"gated_hours", a.gated_hours}, {"rel_change", a.rel_change},
                    {"rel_se", a.rel_se}, {"kl_growth", a.kl_growth}, {"hours_under_tolerance", a.hours_under_tolerance},
                    {"explanation", a.explanation}};
+  if (a.prior_hours > 0) {  // started from priors (adequacy::PriorCredit)
+    j["adequacy"]["prior_hours"] = a.prior_hours;
+    j["adequacy"]["change_from_prior"] = a.change_from_prior;
+  }
   const adequacy::PlausibilityReport& p = e.plausibility;
   nlohmann::json pj = {{"passed", p.passed()}, {"reason", p.Reason()}, {"drives_checked", p.drives.size()},
                        {"drives_failed", p.drives_failed}, {"checks", nlohmann::json::array()},
@@ -145,6 +149,11 @@ Estimate EstimateFromJson(const JsonIn& in) {
   r.kl_growth = a.Number("kl_growth");
   r.hours_under_tolerance = a.Number("hours_under_tolerance");
   r.explanation = a.String("explanation");
+  if (a.Has("prior_hours")) {
+    r.prior_hours = a.Number("prior_hours");
+    if (!(r.prior_hours >= 0 && r.prior_hours <= adequacy::kMaxPriorHours)) a.At("prior_hours").Fail("out of range");
+    r.change_from_prior = a.Bool("change_from_prior");
+  }
   const JsonIn p = in.At("plausibility");
   e.plausibility.checks = ChecksFromJson(p.At("checks"));
   const int64_t failed = p.Int64("drives_failed");

@@ -6,6 +6,7 @@
 
 #include "ndsid/adequacy/prior_check.h"
 #include "ndsid/common/error.h"
+#include "ndsid/common/format.h"
 #include "ndsid/stats/held_out.h"
 
 #include <algorithm>
@@ -24,6 +25,30 @@ void WidenSigma(double spread_deg_per_g, identify::IdentificationResult& fit) {
   const double widened = adequacy::WidenedSigma(fit.eg_se_deg_per_g, spread_deg_per_g);
   fit.eg_se_rad_per_mps2 = widened / model::EgToDegPerG(1.0);
   fit.eg_se_deg_per_g = widened;
+}
+
+// EG of model.priors (the adequacy tracker's reference before the first estimate,
+// adequacy::PriorCredit): the prior on EG itself, else EG at the means of the priors on cv, ch
+// and lv with m from a prior or fixed; else 0.
+double PriorsEg(const config::Config& config) {
+  for (const config::ParameterPrior& pr : config.identification.priors)
+    if (pr.name == config::kEgPriorName) return pr.value / model::EgToDegPerG(1.0);
+  model::Params<double> p{};
+  const config::ParameterSpec& m = config.identification.params[model::kMass];
+  double* slots[] = {&p.m, &p.cv, &p.ch, &p.lv};
+  const char* names[] = {"m", "cv", "ch", "lv"};
+  for (int k = 0; k < 4; ++k) {
+    const auto it = std::find_if(config.identification.priors.begin(), config.identification.priors.end(),
+                                 [&](const config::ParameterPrior& pr) { return pr.name == names[k]; });
+    if (it != config.identification.priors.end()) {
+      *slots[k] = it->value;
+    } else if (k == 0 && m.fixed) {
+      p.m = m.initial;
+    } else {
+      return 0;
+    }
+  }
+  return model::SelfSteerGradient(p, config.vehicle.wheelbase_m);
 }
 }  // namespace
 
@@ -271,15 +296,15 @@ namespace {
 
 // How far the fit ended from model.priors (adequacy/prior_check.h): a note, and the check
 // `prior`; a fit that contradicts its priors is a compromise between them and the data, so it is
-// not valid (refit without them).
-void CheckPriors(const std::vector<config::ParameterPrior>& priors, Estimate& e) {
-  if (priors.empty()) return;
+// not valid (refit without them). Returns whether it contradicts them.
+bool CheckPriors(const std::vector<config::ParameterPrior>& priors, Estimate& e) {
+  if (priors.empty()) return false;
   std::vector<adequacy::FittedParameter> fitted;
   for (const auto& p : e.fit.params) fitted.push_back({p.name, p.value, p.fixed});
   for (const auto& p : e.fit.effect_params) fitted.push_back({p.name, p.value, p.fixed});
   fitted.push_back({config::kEgPriorName, e.fit.eg_deg_per_g, false});
   const adequacy::PriorDistance d = adequacy::DistanceFromPriors(fitted, priors);
-  if (d.z.empty()) return;
+  if (d.z.empty()) return false;
   e.fit.identifiability.notes.push_back(d.Note());
   adequacy::Check c{.name = "prior", .value = d.distance, .message = d.Note()};
   c.verdict = d.contradicts ? adequacy::Verdict::kFailed : adequacy::Verdict::kPassed;
@@ -288,6 +313,7 @@ void CheckPriors(const std::vector<config::ParameterPrior>& priors, Estimate& e)
     e.fit.reason = e.fit.valid ? e.plausibility.Reason() : e.fit.reason + "; " + c.message;
     e.fit.valid = false;
   }
+  return d.contradicts;
 }
 
 }  // namespace
@@ -349,9 +375,18 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
       e.fit.reason = e.plausibility.Reason();
     }
   }
-  CheckPriors(config_.identification.priors, e);
+  // What model.priors are worth to the adequacy tracker: none without them, none when the fit
+  // contradicts them.
+  adequacy::PriorCredit credit = adequacy::CreditOf(e.fit.eg_prior_info_share, snap.window_hours, PriorsEg(config_));
+  if (CheckPriors(config_.identification.priors, e)) credit = {};
+  if (credit.hours > 0) {
+    e.fit.identifiability.notes.push_back(
+        Fmt("model.priors hold %.0f %% of EG's information, as much as %.2f h more of this driving (the adequacy "
+            "tracker counts them so; their EG %.4f deg/g)",
+            100 * e.fit.eg_prior_info_share, credit.hours, model::EgToDegPerG(credit.eg)));
+  }
   if (e.fit.valid) {
-    e.adequacy = adequacy_.Update(snap.gated_hours, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2, snap.coverage);
+    e.adequacy = adequacy_.Update(snap.gated_hours, e.fit.eg_rad_per_mps2, e.fit.eg_se_rad_per_mps2, snap.coverage, credit);
     last_ = e;
   } else {
     // Keep the last good estimate; report this one as not valid with its reason.

@@ -59,6 +59,67 @@ TEST(AdequacyTracker, DriftingEgNeverAdequate) {
   }
 }
 
+// k quarter hours of driving that all cover the same conditions (coverage growth exactly 0).
+stats::Coverage SteadyCoverage(int k) {
+  const stats::Coverage quarter = SomeCoverage(250);
+  stats::Coverage c;
+  for (int i = 0; i < k; ++i) c.Merge(quarter);
+  return c;
+}
+
+// The hours at which a vehicle with a steady EG (the data's `eg`, relative se 0.5 %) first
+// reads ADEQUATE, one estimate every quarter hour, with `prior` (none: hours 0).
+double FirstAdequateHours(const PriorCredit& prior, double eg, std::vector<Report>* reports = nullptr) {
+  Tracker t(Cfg());
+  for (int k = 1; k <= 40; ++k) {
+    const double h = 0.25 * k;
+    const Report r = t.Update(h, eg, 0.005 * eg, SteadyCoverage(k), prior);
+    if (reports) reports->push_back(r);
+    if (r.state == State::kAdequate) return h;
+  }
+  return -1;
+}
+
+// Catches: a prior not counted as driving (adequacy only after change window + hold of the
+// vehicle's own hours), the hold credited to the prior (adequate before hold_h of the vehicle's
+// own driving), or more credit than the prior's hours.
+TEST(AdequacyTracker, APriorCountsAsItsHoursOfDrivingBeforeTheFirst) {
+  const double eg = 0.003;
+  const double alone = FirstAdequateHours({}, eg);
+  EXPECT_GE(alone, 4.0);  // change window 2 h, then the hold of 2 h
+  EXPECT_LE(alone, 4.25);
+  std::vector<Report> reports;
+  const double with = FirstAdequateHours({3.0, eg * 1.002}, eg, &reports);  // a prior worth more than the window
+  EXPECT_GE(with, 2.0);   // the hold is the vehicle's own
+  EXPECT_LE(with, 2.5);   // judged from the second estimate on (coverage over the second half)
+  EXPECT_TRUE(reports[1].change_from_prior);
+  EXPECT_NEAR(reports[1].rel_change, 0.002 / 1.0, 1e-6);
+  EXPECT_NE(reports[1].explanation.find("from its priors' EG (the priors counted as 3.00 h"), std::string::npos)
+      << reports[1].explanation;
+  EXPECT_FALSE(reports.back().change_from_prior);  // past the window, against its own history
+  const double short_prior = FirstAdequateHours({1.0, eg}, eg);  // reaches the window's start at 1 h
+  EXPECT_GE(short_prior, 3.0);
+  EXPECT_LE(short_prior, 3.25);
+}
+
+// Catches: a prior that disagrees with the vehicle's data hiding that (adequate early).
+TEST(AdequacyTracker, APriorTheDataContradictGivesNoHead) {
+  std::vector<Report> reports;
+  const double with = FirstAdequateHours({3.0, 0.003 * 1.03}, 0.003, &reports);
+  EXPECT_GE(with, 4.0);
+  EXPECT_EQ(reports[1].state, State::kConverging);
+  EXPECT_NEAR(reports[1].rel_change, 0.03, 1e-9);
+}
+
+// Catches: the credit's hours not data_hours * share / (1 - share), or a credit without a prior EG.
+TEST(AdequacyTracker, CreditOfAPriorsInformationShare) {
+  EXPECT_DOUBLE_EQ(CreditOf(0.75, 2.0, 0.003).hours, 6.0);
+  EXPECT_DOUBLE_EQ(CreditOf(0.75, 2.0, 0.003).eg, 0.003);
+  EXPECT_DOUBLE_EQ(CreditOf(0.0, 2.0, 0.003).hours, 0.0);
+  EXPECT_DOUBLE_EQ(CreditOf(0.5, 2.0, 0.0).hours, 0.0);
+  EXPECT_DOUBLE_EQ(CreditOf(1.0, 2.0, 0.003).hours, kMaxPriorHours);
+}
+
 TEST(AdequacyTracker, RoundTripKeepsHistory) {
   Tracker t(Cfg());
   for (int k = 1; k <= 12; ++k) t.Update(0.5 * k, 0.003, 1e-6, SomeCoverage(500 * k));

@@ -96,6 +96,10 @@ struct IdentificationResult {
   // training residual sqrt(sum (e_k - e_k-1)^2 / 2n) (-1: unknown).
   double eg_se_fit_rad_per_mps2 = 0;
   double eg_bound_shift_rad_per_mps2 = 0;  // EG's move were every bound released (one Newton step)
+  // The priors' share of EG's information, 1 - var(EG | data and priors) / var(EG | data alone),
+  // both classical at the optimum (0 without priors): what the adequacy tracker counts a prior as
+  // in hours of driving (docs/fleet.md, "Adequacy with a fleet prior").
+  double eg_prior_info_share = 0;
   std::optional<std::pair<HalfEstimate, HalfEstimate>> halves;
   double floor_a_y_mps2 = -1;
   double floor_yaw_radps = -1;

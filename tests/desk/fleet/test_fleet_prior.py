@@ -88,6 +88,12 @@ def test_prior_reaches_one_percent_where_alone_does_not(prior, tmp_path):
         d = fleet_prior.prior_distance(est["parameters"], ndsid.load_config(cfg)["priors"], est["eg_deg_per_g"])
         assert not d["conflict"], (seed, d)
         assert _prior_check(est) == "passed"
+        # The adequacy tracker counts the prior as driving: here it holds most of EG's
+        # information, worth more than the half hour driven (docs/fleet.md).
+        share, credit = est.get("eg_prior_info_share", 0), est["adequacy"].get("prior_hours", 0)
+        print(f"  the prior's share of EG's information {share:.2f}, counted as {credit:.2f} h of driving")
+        assert share > 0.5 and credit > NEW_HOURS, (seed, share, credit)
+        assert "eg_prior_info_share" not in alone and "prior_hours" not in alone["adequacy"]
         # Alone, 0.5 h does not reach 1 %: off by more, or a sigma that cannot promise it.
         alone_misses += abs(err_alone) > TOLERANCE * truth or 2 * se_alone > TOLERANCE * truth
     assert alone_misses == len(SEEDS)
@@ -107,6 +113,7 @@ def test_loaded_vehicle_contradicts_its_prior(prior, tmp_path):
         assert "contradicts them" in est["reason"], est["reason"]
         assert _prior_check(est) == "failed"
 
+        assert "prior_hours" not in est["adequacy"]  # a contradicted prior is not counted as driving
 
 def test_long_drive_without_yaw_rate_keeps_an_honest_sigma(prior, tmp_path):
     """Catches a prior that biases EG where the data leave a parameter combination to it: hours of
@@ -121,6 +128,39 @@ def test_long_drive_without_yaw_rate_keeps_an_honest_sigma(prior, tmp_path):
           f"({100 * err / truth:+.2f} %, z {err / se:+.2f}), truth {truth:.4f}")
     assert est["valid"], est["reason"]
     assert abs(err) < 3 * se
+
+
+def test_a_prior_started_vehicle_is_adequate_sooner_where_egs_convergence_is_the_limit(prior, tmp_path):
+    """Catches a prior not counted as driving by the adequacy tracker (docs/fleet.md, "Adequacy with
+    a fleet prior"), or counted for a biased EG. A bus without a yaw rate, 3 h driven; coverage is
+    taken out of the judgement (kl_threshold 100: the simulator's drives keep adding coverage for
+    hours, docs/fleet.md), so EG's convergence is the limit. Alone, EG still moves by more than
+    the tolerance at the end; with the prior the vehicle reads ADEQUATE after the hold of its own
+    hours, on an EG within 1 % and 3 sigma of the truth."""
+    seed = 201
+    runs = {}
+    for label, use_prior in (("prior", True), ("alone", False)):
+        v, cfg = _new_vehicle(tmp_path / label, f"adequate-{seed}", Variant(), seed, prior, a_y_only=True, hours=3.0)
+        path = cfg if use_prior else v["config"]
+        with open(path) as f:
+            c = yaml.safe_load(f)
+        c["adequacy"] = dict(c.get("adequacy") or {}, kl_threshold=100)
+        with open(path, "w") as f:
+            yaml.safe_dump(c, f)
+        runs[label] = (v, ndsid.replay(path, v["logs"], final_only=False))
+    v, r = runs["prior"]
+    truth, h = v["truth_eg_deg_per_g"], r["history"]
+    adequate = h[h["state"] == "ADEQUATE"]
+    assert len(adequate), r["estimate"]["adequacy"]["explanation"]
+    first = adequate.iloc[0]
+    print(f"with prior: ADEQUATE at {first.gated_hours:.2f} gated h, EG {first.eg_deg_per_g:.4f} ± "
+          f"{first.eg_se_deg_per_g:.4f} (truth {truth:.4f})")
+    assert abs(first.eg_deg_per_g - truth) < min(0.01 * truth, 3 * first.eg_se_deg_per_g)
+    assert first.gated_hours >= 2.0  # the hold (2 h) is the vehicle's own driving
+    _, alone = runs["alone"]
+    a = alone["estimate"]["adequacy"]
+    print(f"alone: {a['state']} at {a['gated_hours']:.2f} gated h: {a['explanation']}")
+    assert a["state"] != "ADEQUATE" and a["rel_change"] > 0.01  # its EG has not converged
 
 
 def _prior_check(est: dict) -> str:
