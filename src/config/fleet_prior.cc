@@ -119,17 +119,22 @@ void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicl
   };
   static const Key kKeys[] = {{"Jz", "Jz_per_m", true}, {"cv", "cv_per_m", true}, {"ch", "ch_per_m", true},
                               {"lv", "lv", false}, {"is", "is", false}};
+  auto configured = [&](const std::string& name) {
+    return std::any_of(ic.priors.begin(), ic.priors.end(), [&](const ParameterPrior& q) { return q.name == name; });
+  };
+  // An entry's mean and sd (`what` names it in the error).
+  auto mean_sd = [&](const YAML::Node& entry, const std::string& what) {
+    try {
+      return std::pair{entry["mean"].as<double>(), entry["sd"].as<double>()};
+    } catch (const YAML::Exception&) {
+      fail(what + " needs numbers 'mean' and 'sd'");
+    }
+    return std::pair{0.0, 0.0};  // not reached: fail throws
+  };
   for (const Key& k : kKeys) {
     const YAML::Node p = root["parameters"][k.fleet];
-    if (!p) continue;
-    if (std::any_of(ic.priors.begin(), ic.priors.end(), [&](const ParameterPrior& q) { return q.name == k.param; })) continue;
-    double mean = 0, sd = 0;
-    try {
-      mean = p["mean"].as<double>();
-      sd = p["sd"].as<double>();
-    } catch (const YAML::Exception&) {
-      fail(std::string("parameters.") + k.fleet + " needs numbers 'mean' and 'sd'");
-    }
+    if (!p || configured(k.param)) continue;
+    const auto [mean, sd] = mean_sd(p, std::string("parameters.") + k.fleet);
     const double scale = k.per_kg ? vehicle.mass_kg : 1.0;
     if (!std::isfinite(mean) || !std::isfinite(sd) || !(mean > 0) || !(sd > 0) || mean * scale > kMaxPhysical) {
       fail(std::string("parameters.") + k.fleet + ": a prior needs a positive finite mean and sd > 0");
@@ -139,15 +144,8 @@ void ApplyFleetPrior(const std::string& config_path, const VehicleConfig& vehicl
   // The group's EG: its vehicles' parameter errors are correlated (their EGs agree far better than
   // their cv, ch and lv), which independent priors on the parameters cannot say.
   const YAML::Node eg = root[kEgPriorName];
-  const bool configured = std::any_of(ic.priors.begin(), ic.priors.end(), [](const ParameterPrior& q) { return q.name == kEgPriorName; });
-  if (eg && !configured) {
-    double mean = 0, sd = 0;
-    try {
-      mean = eg["mean"].as<double>();
-      sd = eg["sd"].as<double>();
-    } catch (const YAML::Exception&) {
-      fail(std::string(kEgPriorName) + " needs numbers 'mean' and 'sd'");
-    }
+  if (eg && !configured(kEgPriorName)) {
+    const auto [mean, sd] = mean_sd(eg, kEgPriorName);
     if (!std::isfinite(mean) || !std::isfinite(sd) || !(sd > 0) || std::abs(mean) > kMaxPhysical) {
       fail(std::string(kEgPriorName) + ": a prior needs a finite mean and sd > 0");
     }

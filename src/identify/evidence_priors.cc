@@ -8,6 +8,7 @@
 #include "ndsid/identify/identifier.h"
 #include "ndsid/model/effect_library.h"
 #include "ndsid/stats/speed_scale.h"
+#include "quadratic_prior.h"
 
 namespace ndsid::identify {
 namespace {
@@ -107,13 +108,12 @@ void EgPriorCost::AddInformation(const double* theta, Eigen::MatrixXd& info) con
 }
 
 double EgPriorCost::Standardised(const double* theta, Eigen::VectorXd& row) const {
-  using Jet6 = ceres::Jet<double, 6>;
-  model::Params<Jet6> p{Jet6(theta[0] * scale_[0], 0), Jet6(theta[1] * scale_[1], 1), Jet6(theta[2] * scale_[2], 2),
-                        Jet6(theta[3] * scale_[3], 3), Jet6(theta[4] * scale_[4], 4), Jet6(theta[5] * scale_[5], 5)};
-  const Jet6 eg = model::SelfSteerGradient(p, wheelbase_m_);
-  row.setZero();
-  for (int i = 0; i < model::kNumParams; ++i) row[i] = eg.v[i] * scale_[i] / sd_;
-  return (eg.a - value_) / sd_;
+  const std::vector<double> t(theta, theta + scale_.size());
+  double base[model::kNumParams];
+  for (int i = 0; i < model::kNumParams; ++i) base[i] = t[i] * scale_[i];
+  const double eg = model::SelfSteerGradient(model::Params<double>::FromArray(base), wheelbase_m_);
+  row = EgGradientTheta(t, scale_, wheelbase_m_, std::vector<bool>(scale_.size(), false)) / sd_;
+  return (eg - value_) / sd_;
 }
 
 // Standstill evidence: a prior from the stops of the training drives on gyro_offset and
@@ -177,10 +177,10 @@ void EvidencePriors::SetWeight(double level) {
 
 Eigen::MatrixXd EvidencePriors::InformationTheta(const double* theta, const std::vector<int>& free, bool configured_only) const {
   const int nf = static_cast<int>(free.size());
-  const Eigen::MatrixXd all =
-      InformationAll(theta, costs_.empty() ? 0 : costs_.front()->parameter_block_sizes()[0], configured_only);
   Eigen::MatrixXd info = Eigen::MatrixXd::Zero(nf, nf);
-  for (int a = 0; a < nf && !costs_.empty(); ++a)
+  if (costs_.empty()) return info;
+  const Eigen::MatrixXd all = InformationAll(theta, costs_.front()->parameter_block_sizes()[0], configured_only);
+  for (int a = 0; a < nf; ++a)
     for (int b = 0; b < nf; ++b) info(a, b) = all(free[a], free[b]);
   return info;
 }

@@ -105,12 +105,12 @@ struct ParameterSpec {
   bool fixed = false;
 };
 
-// A Gaussian prior on one model parameter (model.priors in the YAML): a data-sheet roll
-// gradient, a measured tyre radius... Enters the fit as a residual (p - value)/sd weighted by
-// the data's noise level, and the covariance as information.
 // model.priors' name of a prior on the self-steering gradient itself (value and sd in deg/g).
 inline constexpr const char* kEgPriorName = "eg_deg_per_g";
 
+// A Gaussian prior on one model parameter (model.priors in the YAML): a data-sheet roll
+// gradient, a measured tyre radius... Enters the fit as a residual (p - value)/sd weighted by
+// the data's noise level, and the covariance as information.
 struct ParameterPrior {
   std::string name;  // a base or effect parameter name, e.g. "roll_gradient_rad_per_mps2"
   double value = 0;
