@@ -15,6 +15,7 @@ void RegressionStats::Add(const std::array<double, kDim>& x, double y, double w)
   }
   yty_ += w * y * y;
   n_ += w;
+  m_ += 1;
 }
 
 void RegressionStats::Merge(const RegressionStats& o) noexcept {
@@ -22,6 +23,7 @@ void RegressionStats::Merge(const RegressionStats& o) noexcept {
   for (int i = 0; i < 3; ++i) xty_[i] += o.xty_[i];
   yty_ += o.yty_;
   n_ += o.n_;
+  m_ += o.m_;
 }
 
 void RegressionStats::Forget(double f) noexcept {
@@ -29,13 +31,15 @@ void RegressionStats::Forget(double f) noexcept {
   for (double& v : xty_) v *= f;
   yty_ *= f;
   n_ *= f;
+  m_ *= f;
 }
 
 LsSolution RegressionStats::Solve() const {
   LsSolution s;
   s.n = n_;
-  if (n_ < 10) {
-    s.reason = "fewer than 10 quasi-steady samples";
+  s.m = m_;
+  if (m_ < 10) {
+    s.reason = "fewer than 10 observations";
     return s;
   }
   // Symmetric 3x3 inverse by cofactors, on the matrix scaled to unit diagonal for conditioning.
@@ -67,7 +71,7 @@ LsSolution RegressionStats::Solve() const {
   double rss = yty_;
   for (int i = 0; i < 3; ++i) rss -= s.theta[i] * xty_[i];
   rss = std::max(rss, 0.0);
-  const double dof = std::max(n_ - 3.0, 1.0);
+  const double dof = std::max(m_ - 3.0, 1.0);
   s.sigma = std::sqrt(rss / dof);
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) s.covariance[i * 3 + j] = s.sigma * s.sigma * inv[i * 3 + j] * d[i] * d[j];
@@ -76,7 +80,9 @@ LsSolution RegressionStats::Solve() const {
 }
 
 nlohmann::json RegressionStats::ToJson() const {
-  return {{"xtx", xtx_}, {"xty", xty_}, {"yty", yty_}, {"n", n_}};
+  nlohmann::json j = {{"xtx", xtx_}, {"xty", xty_}, {"yty", yty_}, {"n", n_}};
+  if (m_ != n_) j["m"] = m_;  // absent: every sample its own observation
+  return j;
 }
 
 RegressionStats RegressionStats::FromJson(const JsonIn& in) {
@@ -89,6 +95,8 @@ RegressionStats RegressionStats::FromJson(const JsonIn& in) {
   r.yty_ = in.Finite("yty");
   r.n_ = in.Finite("n");
   if (r.n_ < 0) in.At("n").Fail("negative");
+  r.m_ = in.Has("m") ? in.Finite("m") : r.n_;
+  if (r.m_ < 0) in.At("m").Fail("negative");
   return r;
 }
 

@@ -7,26 +7,66 @@
 namespace ndsid::stats {
 
 void SteadyStateStats::Add(const gate::GatedSample& g) noexcept {
-  if (g.verdict != gate::Verdict::kAccepted || !g.quasi_steady) return;
+  if (g.verdict != gate::Verdict::kAccepted) return;
+  // A stretch ends at the first sample that is not quasi-steady and at every new segment (a gap
+  // in the accepted samples, a new drive).
+  if (!g.quasi_steady || g.segment_start) CloseStretch();
+  if (!g.quasi_steady) return;
   const auto& s = g.sample;
   const double v = s.speed_mps;
-  without_yaw_.Add({s.lat_accel_mps2 / (v * v), s.lat_accel_mps2, 1.0}, s.steer_rad);
-  if (s.has_yaw_rate) with_yaw_.Add({s.yaw_rate_radps / v, s.lat_accel_mps2, 1.0}, s.steer_rad);
+  const double ay_v2 = s.lat_accel_mps2 / (v * v), r_v = s.yaw_rate_radps / v;
+  if (!std::isfinite(ay_v2) || !std::isfinite(s.lat_accel_mps2) || !std::isfinite(s.steer_rad)) return;
+  const bool yaw = s.has_yaw_rate && std::isfinite(r_v);
+  open_.has_yaw_rate = (open_.n == 0 || open_.has_yaw_rate) && yaw;
+  open_.n += 1;
+  open_.steer += s.steer_rad;
+  open_.ay_v2 += ay_v2;
+  open_.ay += s.lat_accel_mps2;
+  open_.r_v += yaw ? r_v : 0.0;
+}
+
+void SteadyStateStats::CloseStretch() noexcept {
+  const Stretch o = open_;
+  open_ = Stretch{};
+  if (!(o.n > 0)) return;
+  const double k = 1.0 / o.n;
+  without_yaw_.Add({o.ay_v2 * k, o.ay * k, 1.0}, o.steer * k, o.n);
+  if (o.has_yaw_rate) with_yaw_.Add({o.r_v * k, o.ay * k, 1.0}, o.steer * k, o.n);
 }
 
 void SteadyStateStats::Merge(const SteadyStateStats& o) noexcept {
+  // `o` holds later data: this one's stretch has ended, o's goes on.
+  CloseStretch();
   without_yaw_.Merge(o.without_yaw_);
   with_yaw_.Merge(o.with_yaw_);
+  open_ = o.open_;
 }
 
 void SteadyStateStats::Forget(double f) noexcept {
   without_yaw_.Forget(f);
   with_yaw_.Forget(f);
+  open_.n *= f;
+  open_.steer *= f;
+  open_.ay_v2 *= f;
+  open_.r_v *= f;
+  open_.ay *= f;
+}
+
+RegressionStats SteadyStateStats::without_yaw() const {
+  SteadyStateStats closed = *this;
+  closed.CloseStretch();
+  return closed.without_yaw_;
+}
+
+RegressionStats SteadyStateStats::with_yaw() const {
+  SteadyStateStats closed = *this;
+  closed.CloseStretch();
+  return closed.with_yaw_;
 }
 
 SteadyStateEstimate SteadyStateStats::Estimate(double l, bool use_yaw_rate) const {
   SteadyStateEstimate e;
-  const LsSolution s = (use_yaw_rate ? with_yaw_ : without_yaw_).Solve();
+  const LsSolution s = (use_yaw_rate ? with_yaw() : without_yaw()).Solve();
   e.n = s.n;
   if (!s.valid) {
     e.reason = s.reason;
@@ -49,13 +89,28 @@ SteadyStateEstimate SteadyStateStats::Estimate(double l, bool use_yaw_rate) cons
 }
 
 nlohmann::json SteadyStateStats::ToJson() const {
-  return {{"without_yaw", without_yaw_.ToJson()}, {"with_yaw", with_yaw_.ToJson()}};
+  const Stretch& o = open_;
+  nlohmann::json j = {{"without_yaw", without_yaw_.ToJson()}, {"with_yaw", with_yaw_.ToJson()}};
+  if (o.n > 0)
+    j["open_stretch"] = {{"n", o.n}, {"steer", o.steer}, {"ay_v2", o.ay_v2}, {"r_v", o.r_v}, {"ay", o.ay}, {"has_yaw_rate", o.has_yaw_rate}};
+  return j;
 }
 
 SteadyStateStats SteadyStateStats::FromJson(const JsonIn& in) {
   SteadyStateStats s;
   s.without_yaw_ = RegressionStats::FromJson(in.At("without_yaw"));
   s.with_yaw_ = RegressionStats::FromJson(in.At("with_yaw"));
+  if (in.Has("open_stretch")) {  // absent in a state written before stretches: none open
+    const JsonIn o = in.At("open_stretch");
+    Stretch& t = s.open_;
+    t.n = o.Finite("n");
+    if (t.n < 0) o.At("n").Fail("negative");
+    t.steer = o.Finite("steer");
+    t.ay_v2 = o.Finite("ay_v2");
+    t.r_v = o.Finite("r_v");
+    t.ay = o.Finite("ay");
+    t.has_yaw_rate = o.Bool("has_yaw_rate");
+  }
   return s;
 }
 

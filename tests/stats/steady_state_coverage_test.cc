@@ -19,6 +19,7 @@ gate::GatedSample Steady(double v, double ay, double steer, double r, bool yaw, 
   gate::GatedSample g;
   g.verdict = gate::Verdict::kAccepted;
   g.quasi_steady = true;
+  g.segment_start = true;  // a stretch of its own: one observation per sample
   g.sample.speed_mps = v;
   g.sample.lat_accel_mps2 = ay;
   g.sample.steer_rad = steer;

@@ -1,8 +1,13 @@
 // Closed-form steady-state estimate of EG from quasi-steady samples (physics.md §1):
 //   d_sw = (is*l) * (a_y/v^2) + (is*EG) * a_y + d0          (without yaw rate)
 //   d_sw = (is*l) * (r/v)     + (is*EG) * a_y + d0          (with yaw rate: kinematic term from r)
-// An instant EG, a warm start for the dynamic fit and its own standard errors. Its regressors
-// are noisy (errors in variables): expect a few per cent bias; the dynamic fit is the reference.
+// An instant EG, a warm start for the dynamic fit and its own standard errors.
+// One observation per quasi-steady stretch (a contiguous run of accepted quasi-steady samples):
+// the stretch's means, weighted by its sample count. Averaging takes the sensors' noise and
+// vibration out of the regressors (per sample they would attenuate the coefficients: errors in
+// variables), and the residual variance counts stretches, not correlated samples, as degrees of
+// freedom. What remains (a bank, wind, the dynamics of a stretch that is not quite steady) is a few
+// per cent; the dynamic fit is the reference.
 #pragma once
 
 #include <string>
@@ -29,15 +34,29 @@ class SteadyStateStats {
   void Forget(double factor) noexcept;
   SteadyStateEstimate Estimate(double wheelbase_m, bool use_yaw_rate) const;
 
-  const RegressionStats& without_yaw() const { return without_yaw_; }
-  const RegressionStats& with_yaw() const { return with_yaw_; }
+  // The two regressions' statistics, the open stretch included as if it ended here.
+  RegressionStats without_yaw() const;
+  RegressionStats with_yaw() const;
   nlohmann::json ToJson() const;  // {"without_yaw": ..., "with_yaw": ...}
   static SteadyStateStats FromJson(const JsonIn& in);
   bool operator==(const SteadyStateStats&) const = default;
 
+  // The stretch still open (its sums): it counts in Estimate() and travels in the state.
+  struct Stretch {
+    double n = 0;            // samples (forgetting scales it like the rest)
+    double steer = 0;        // sum of d_sw
+    double ay_v2 = 0;        // sum of a_y / v^2
+    double r_v = 0;          // sum of r / v (samples with a yaw rate)
+    double ay = 0;           // sum of a_y
+    bool has_yaw_rate = true;
+    bool operator==(const Stretch&) const = default;
+  };
+
  private:
+  void CloseStretch() noexcept;  // adds the open stretch's means as one observation
   RegressionStats without_yaw_;
   RegressionStats with_yaw_;
+  Stretch open_;
 };
 
 }  // namespace ndsid::stats
