@@ -23,6 +23,7 @@ void SteadyStateStats::Add(const gate::GatedSample& g) noexcept {
   open_.ay_v2 += ay_v2;
   open_.ay += s.lat_accel_mps2;
   open_.r_v += yaw ? r_v : 0.0;
+  open_.v_r += yaw ? v * s.yaw_rate_radps : 0.0;
 }
 
 void SteadyStateStats::CloseStretch() noexcept {
@@ -31,7 +32,10 @@ void SteadyStateStats::CloseStretch() noexcept {
   if (!(o.n > 0)) return;
   const double k = 1.0 / o.n;
   without_yaw_.Add({o.ay_v2 * k, o.ay * k, 1.0}, o.steer * k, o.n);
-  if (o.has_yaw_rate) with_yaw_.Add({o.r_v * k, o.ay * k, 1.0}, o.steer * k, o.n);
+  if (o.has_yaw_rate) {
+    with_yaw_.Add({o.r_v * k, o.ay * k, 1.0}, o.steer * k, o.n);
+    with_yaw_iv_.Add({o.r_v * k, o.ay * k, 1.0}, {o.r_v * k, o.v_r * k, 1.0}, o.steer * k, o.n);
+  }
 }
 
 void SteadyStateStats::Merge(const SteadyStateStats& o) noexcept {
@@ -39,17 +43,20 @@ void SteadyStateStats::Merge(const SteadyStateStats& o) noexcept {
   CloseStretch();
   without_yaw_.Merge(o.without_yaw_);
   with_yaw_.Merge(o.with_yaw_);
+  with_yaw_iv_.Merge(o.with_yaw_iv_);
   open_ = o.open_;
 }
 
 void SteadyStateStats::Forget(double f) noexcept {
   without_yaw_.Forget(f);
   with_yaw_.Forget(f);
+  with_yaw_iv_.Forget(f);
   open_.n *= f;
   open_.steer *= f;
   open_.ay_v2 *= f;
   open_.r_v *= f;
   open_.ay *= f;
+  open_.v_r *= f;
 }
 
 RegressionStats SteadyStateStats::without_yaw() const {
@@ -64,9 +71,14 @@ RegressionStats SteadyStateStats::with_yaw() const {
   return closed.with_yaw_;
 }
 
-SteadyStateEstimate SteadyStateStats::Estimate(double l, bool use_yaw_rate) const {
+InstrumentedStats SteadyStateStats::with_yaw_instrumented() const {
+  SteadyStateStats closed = *this;
+  closed.CloseStretch();
+  return closed.with_yaw_iv_;
+}
+
+SteadyStateEstimate SteadyStateFromSolution(const LsSolution& s, double l) {
   SteadyStateEstimate e;
-  const LsSolution s = (use_yaw_rate ? with_yaw() : without_yaw()).Solve();
   e.n = s.n;
   if (!s.valid) {
     e.reason = s.reason;
@@ -88,11 +100,26 @@ SteadyStateEstimate SteadyStateStats::Estimate(double l, bool use_yaw_rate) cons
   return e;
 }
 
+SteadyStateEstimate SteadyStateStats::Estimate(double l, bool use_yaw_rate) const {
+  LsSolution s;
+  if (use_yaw_rate) {
+    // The instrumented regression once it has its observations (a state written before it has
+    // none: the plain one stands in until then).
+    const InstrumentedStats iv = with_yaw_instrumented();
+    s = iv.m() >= 10 ? iv.Solve() : with_yaw().Solve();
+  } else {
+    s = without_yaw().Solve();
+  }
+  return SteadyStateFromSolution(s, l);
+}
+
 nlohmann::json SteadyStateStats::ToJson() const {
   const Stretch& o = open_;
   nlohmann::json j = {{"without_yaw", without_yaw_.ToJson()}, {"with_yaw", with_yaw_.ToJson()}};
+  if (with_yaw_iv_.m() > 0) j["with_yaw_instrumented"] = with_yaw_iv_.ToJson();
   if (o.n > 0)
-    j["open_stretch"] = {{"n", o.n}, {"steer", o.steer}, {"ay_v2", o.ay_v2}, {"r_v", o.r_v}, {"ay", o.ay}, {"has_yaw_rate", o.has_yaw_rate}};
+    j["open_stretch"] = {{"n", o.n},   {"steer", o.steer}, {"ay_v2", o.ay_v2},
+                         {"r_v", o.r_v}, {"ay", o.ay},       {"v_r", o.v_r}, {"has_yaw_rate", o.has_yaw_rate}};
   return j;
 }
 
@@ -100,6 +127,7 @@ SteadyStateStats SteadyStateStats::FromJson(const JsonIn& in) {
   SteadyStateStats s;
   s.without_yaw_ = RegressionStats::FromJson(in.At("without_yaw"));
   s.with_yaw_ = RegressionStats::FromJson(in.At("with_yaw"));
+  if (in.Has("with_yaw_instrumented")) s.with_yaw_iv_ = InstrumentedStats::FromJson(in.At("with_yaw_instrumented"));
   if (in.Has("open_stretch")) {  // absent in a state written before stretches: none open
     const JsonIn o = in.At("open_stretch");
     Stretch& t = s.open_;
@@ -109,6 +137,7 @@ SteadyStateStats SteadyStateStats::FromJson(const JsonIn& in) {
     t.ay_v2 = o.Finite("ay_v2");
     t.r_v = o.Finite("r_v");
     t.ay = o.Finite("ay");
+    t.v_r = o.Finite("v_r");
     t.has_yaw_rate = o.Bool("has_yaw_rate");
   }
   return s;

@@ -8,11 +8,15 @@
 // variables), and the residual variance counts stretches, not correlated samples, as degrees of
 // freedom. What remains (a bank, wind, the dynamics of a stretch that is not quite steady) is a few
 // per cent; the dynamic fit is the reference.
+// With the yaw rate, a_y is instrumented by v*r (instrumental variables): in steady state the two
+// agree but for the road's bank, and v*r carries none of the accelerometer's noise, which would
+// otherwise still attenuate the a_y coefficient where it lies inside a filter's pass band.
 #pragma once
 
 #include <string>
 
 #include "ndsid/gate/gate.h"
+#include "ndsid/stats/instrumented_stats.h"
 #include "ndsid/stats/regression_stats.h"
 
 namespace ndsid::stats {
@@ -27,6 +31,9 @@ struct SteadyStateEstimate {
   double n = 0;
 };
 
+// is, EG (delta-method standard error) and d0 from a solution for theta = (is*l, is*EG, d0).
+SteadyStateEstimate SteadyStateFromSolution(const LsSolution& solution, double wheelbase_m);
+
 class SteadyStateStats {
  public:
   void Add(const gate::GatedSample& g) noexcept;  // uses only accepted quasi-steady samples
@@ -34,9 +41,10 @@ class SteadyStateStats {
   void Forget(double factor) noexcept;
   SteadyStateEstimate Estimate(double wheelbase_m, bool use_yaw_rate) const;
 
-  // The two regressions' statistics, the open stretch included as if it ended here.
+  // The regressions' statistics, the open stretch included as if it ended here.
   RegressionStats without_yaw() const;
   RegressionStats with_yaw() const;
+  InstrumentedStats with_yaw_instrumented() const;
   nlohmann::json ToJson() const;  // {"without_yaw": ..., "with_yaw": ...}
   static SteadyStateStats FromJson(const JsonIn& in);
   bool operator==(const SteadyStateStats&) const = default;
@@ -48,6 +56,7 @@ class SteadyStateStats {
     double ay_v2 = 0;        // sum of a_y / v^2
     double r_v = 0;          // sum of r / v (samples with a yaw rate)
     double ay = 0;           // sum of a_y
+    double v_r = 0;          // sum of v * r (samples with a yaw rate)
     bool has_yaw_rate = true;
     bool operator==(const Stretch&) const = default;
   };
@@ -56,6 +65,7 @@ class SteadyStateStats {
   void CloseStretch() noexcept;  // adds the open stretch's means as one observation
   RegressionStats without_yaw_;
   RegressionStats with_yaw_;
+  InstrumentedStats with_yaw_iv_;  // empty in a state written before it: with_yaw_ stands in
   Stretch open_;
 };
 
