@@ -268,6 +268,7 @@ SimulationConfig ParseSimulationConfig(std::string_view yaml_text, const std::st
     m.Number("crossfall_pct_max", c.road.crossfall_pct_max);
     m.Number("crossfall_correlation_m", c.road.crossfall_correlation_m);
     m.Number("evasive_per_hour", c.road.evasive_per_hour);
+    m.Integer("parking_turns", c.road.parking_turns);
   });
   r.Map("drivers", [&](MapReader& m) {
     auto& d = c.drivers;
@@ -360,6 +361,7 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
           "drivers: 0.3 < lat_accel_comfort_min_mps2 <= lat_accel_comfort_max_mps2");
   require(c.road.crossfall_pct_max >= 0.0 && c.road.crossfall_pct_max <= 10.0, "road.crossfall_pct_max in [0, 10] %");
   require(c.road.crossfall_correlation_m > 1.0, "road.crossfall_correlation_m must be > 1 m");
+  require(c.road.parking_turns >= 0 && c.road.parking_turns <= 20, "road.parking_turns in [0, 20]");
   const auto& n = c.noise;
   require(n.steer_deg >= 0 && n.speed_kph >= 0 && n.lat_accel_mps2 >= 0 && n.long_accel_mps2 >= 0 &&
               n.yaw_rate_degps >= 0 && n.lat_accel_disturbance_mps2 >= 0,

@@ -232,6 +232,17 @@ void Roundabout(RoadBuilder& b, Rng& rng, RoadType type, double limit) {
   b.Straight(rng.Uniform(20.0, 60.0), type, limit);
 }
 
+// Manoeuvring at walking pace (a car park, a yard): tight turns R 4.5-7 m of 90-270 deg at
+// 1.5-3 m/s, steering-wheel angles of 300-500 deg; the estimator's gate rejects them (v_min).
+void ParkingTurns(RoadBuilder& b, Rng& rng, int count) {
+  for (int k = 0; k < count; ++k) {
+    const double limit = rng.Uniform(1.5, 3.0);
+    b.Straight(rng.Uniform(3.0, 10.0), RoadType::kUrban, limit);
+    b.Curve(rng.Uniform(4.5, 7.0), rng.Uniform(90.0, 270.0) * kDeg, rng.Uniform(1.0, 3.0), rng.Sign(), RoadType::kUrban,
+            limit, false);
+  }
+}
+
 void UrbanStretch(RoadBuilder& b, Rng& rng, double length_m) {
   const double end = b.s() + length_m;
   double limit = UrbanLimit(rng);
@@ -297,6 +308,7 @@ void MotorwayStretch(RoadBuilder& b, Rng& rng, double length_m) {
 
 Road GenerateRoad(double length_m, const config::SimRoad& cfg, double superelevation_pct, Rng& rng) {
   RoadBuilder b(rng);
+  ParkingTurns(b, rng, cfg.parking_turns);
   b.Straight(rng.Uniform(30.0, 80.0), RoadType::kUrban, 30.0 * kKph);  // leaving the parking spot
   const double km = length_m / 1000.0;
   if (km < 5.0) {
@@ -317,6 +329,7 @@ Road GenerateRoad(double length_m, const config::SimRoad& cfg, double supereleva
     UrbanStretch(b, rng, urban2);
   }
   b.Straight(60.0, RoadType::kUrban, 30.0 * kKph);  // into the destination's parking spot
+  ParkingTurns(b, rng, cfg.parking_turns);
   b.Stop(2.0);                                      // the end of the drive
   b.Straight(20.0, RoadType::kUrban, 30.0 * kKph);
   return b.Finish(cfg, superelevation_pct);

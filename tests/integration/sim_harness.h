@@ -51,6 +51,7 @@ struct ReplayTweaks {
   std::map<std::string, double> message_cycle_ms;
   double frame_loss_pct = 0;
   double timeout_s = 0;
+  int parking_turns = 0;  // simulator: road.parking_turns (tight turns at walking pace)
 };
 
 inline std::string TempDir(const std::string& name) {
@@ -72,6 +73,7 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.sim.effects.mass_schedule_kg = tweaks.mass_schedule_kg;
   run.sim.bus.message_cycle_ms = tweaks.message_cycle_ms;
   run.sim.bus.frame_loss_pct = tweaks.frame_loss_pct;
+  run.sim.road.parking_turns = tweaks.parking_turns;
   const std::string src = NDSID_SOURCE_DIR;
   run.config = std::make_unique<config::Config>(config::LoadConfig(src + "/config/example_vehicle.yaml"));
   run.config->model_effects = model_effects;

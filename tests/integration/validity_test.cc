@@ -153,5 +153,27 @@ TEST(Validity, ASlowIrregularImuMessageKeepsEgRight) {
   }
 }
 
+// Catches: manoeuvres at walking pace with the steering near full lock (a car park, a yard:
+// 300-650 deg at the wheel, 1.5-3 m/s) reaching the fit or the steady-state regression (where the
+// linear model does not hold), or breaking the segments around them so that a check fails.
+TEST(Validity, ManoeuvresAtWalkingPaceWithLargeAnglesLeaveEgRight) {
+  for (uint64_t seed : {209, 210}) {
+    SimulatedRun run = SimulateAndReplay("validity_yard_" + std::to_string(seed), seed, 0.7, {}, {"road_bank", "gyro_offset"},
+                                         {.identify_every_s = 0, .mass_schedule_kg = {}, .yaw_rate_output = true, .parking_turns = 4});
+    const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
+    std::printf("yard seed %llu: EG %+.2f %% (z %+.2f), steady state %+.2f %%\n", static_cast<unsigned long long>(seed),
+                100 * (e.fit.eg_rad_per_mps2 / run.eg_truth - 1), (e.fit.eg_rad_per_mps2 - run.eg_truth) / e.fit.eg_se_rad_per_mps2,
+                100 * (e.steady_state.eg_rad_per_mps2 / run.eg_truth - 1));
+    ASSERT_TRUE(e.fit.valid) << seed << " " << e.fit.reason << "\n" << CheckList(e);
+    for (const char* name : {"converged", "explained_a_y", "explained_yaw_rate", "bounds", "steady_state"}) {
+      const adequacy::Check* c = FindCheck(e, name);
+      ASSERT_NE(c, nullptr) << name;
+      EXPECT_EQ(c->verdict, adequacy::Verdict::kPassed) << seed << " " << name << ": " << c->message;
+    }
+    EXPECT_LT(std::abs(e.fit.eg_rad_per_mps2 - run.eg_truth), 3 * e.fit.eg_se_rad_per_mps2) << seed;
+    EXPECT_LT(std::abs(e.fit.eg_rad_per_mps2 / run.eg_truth - 1), 0.01) << seed;
+  }
+}
+
 }  // namespace
 }  // namespace ndsid::testing

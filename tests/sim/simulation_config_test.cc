@@ -24,6 +24,7 @@ TEST(SimulationConfig, ShippedCmaxYamlEqualsBuiltInDefaults) {
   EXPECT_EQ(c.drivers.lat_accel_comfort_max_mps2, d.drivers.lat_accel_comfort_max_mps2);
   EXPECT_EQ(c.integration.step_hz, d.integration.step_hz);
   EXPECT_EQ(c.duration.hours, d.duration.hours);
+  EXPECT_EQ(c.road.parking_turns, d.road.parking_turns);
   EXPECT_FALSE(c.effects.any());
 }
 
@@ -38,6 +39,10 @@ TEST(SimulationConfig, UnknownKeyIsRejectedWithLine) {
   }
   EXPECT_THROW(ParseSimulationConfig("vehicle:\n  mass_kg: heavy\n", "x.yaml"), ConfigError);
   EXPECT_THROW(ParseSimulationConfig("effects:\n  tyre_mu: -1\n", "x.yaml"), ConfigError);
+  EXPECT_EQ(ParseSimulationConfig("road:\n  parking_turns: 3\n", "x.yaml").road.parking_turns, 3);
+  EXPECT_THROW(ParseSimulationConfig("road:\n  parking_turns: 21\n", "x.yaml"), ConfigError);
+  EXPECT_THROW(ParseSimulationConfig("road:\n  parking_turns: -1\n", "x.yaml"), ConfigError);
+  EXPECT_THROW(ParseSimulationConfig("road:\n  parking_turns: 2.5\n", "x.yaml"), ConfigError);
   const auto c = ParseSimulationConfig("effects:\n  steer_offset_deg: 1.5\n  mass_schedule_kg: [0, 150]\n", "x.yaml");
   EXPECT_EQ(c.effects.steer_offset_deg, 1.5);
   EXPECT_EQ(c.effects.mass_schedule_kg.size(), 2u);

@@ -87,6 +87,7 @@ struct SimRoad {
   double crossfall_pct_max = 3.0;        // |crossfall| clipped here; random, zero mean
   double crossfall_correlation_m = 400.0;
   double evasive_per_hour = 1.0;         // rare evasive double lane changes
+  int parking_turns = 0;                 // tight turns at walking pace at each end of every drive
 };
 
 // Driver population; each drive picks one driver, each driver draws its parameters once.
