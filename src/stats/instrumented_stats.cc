@@ -44,13 +44,8 @@ void InstrumentedStats::Forget(double f) noexcept {
 }
 
 LsSolution InstrumentedStats::Solve() const {
-  LsSolution s;
-  s.n = n_;
-  s.m = m_;
-  if (m_ < 10) {
-    s.reason = "fewer than 10 observations";
-    return s;
-  }
+  LsSolution s = LsSolutionWithCounts(n_, m_);
+  if (!s.reason.empty()) return s;
   const Mat3 a = AsMat(ztx_);
   // Conditioning on the scaled matrix (unit diagonals of Z'WZ and X'WX), as RegressionStats does.
   Eigen::Vector3d dz, dx;

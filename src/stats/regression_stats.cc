@@ -34,14 +34,17 @@ void RegressionStats::Forget(double f) noexcept {
   m_ *= f;
 }
 
-LsSolution RegressionStats::Solve() const {
+LsSolution LsSolutionWithCounts(double n, double m) {
   LsSolution s;
-  s.n = n_;
-  s.m = m_;
-  if (m_ < 10) {
-    s.reason = "fewer than 10 observations";
-    return s;
-  }
+  s.n = n;
+  s.m = m;
+  if (m < 10) s.reason = "fewer than 10 observations";
+  return s;
+}
+
+LsSolution RegressionStats::Solve() const {
+  LsSolution s = LsSolutionWithCounts(n_, m_);
+  if (!s.reason.empty()) return s;
   // Symmetric 3x3 inverse by cofactors, on the matrix scaled to unit diagonal for conditioning.
   std::array<double, 3> d{};
   for (int i = 0; i < 3; ++i) d[i] = xtx_[i * 4] > 0 ? 1.0 / std::sqrt(xtx_[i * 4]) : 0.0;

@@ -21,6 +21,10 @@ struct LsSolution {
   double m = 0;                       // observations
 };
 
+// A solution that carries the counts n and m: not valid, with its reason, below 10 observations
+// (what every solver here checks first).
+LsSolution LsSolutionWithCounts(double n, double m);
+
 class RegressionStats {
  public:
   static constexpr int kDim = 3;
