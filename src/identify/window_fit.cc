@@ -248,7 +248,8 @@ bool WindowFit::ComputeStatistics() {
   statistics.BoundShift();
   statistics.EgCorrelations();
   statistics.Halves();
-  statistics.Identifiability(two_outputs_, chunks_with_yaw_, fit_.chunks.size());
+  // Both counts over the whole window: the prior's held chunks and the chunks fitted here.
+  statistics.Identifiability(two_outputs_, chunks_with_yaw_, fit_.chunks.size() + (prior_ ? prior_->NumChunks() : 0));
   Lap(3);
   return true;
 }

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -263,6 +264,22 @@ TEST(Incremental, TwoOutputsWithSensorEffectsFollowTheFullFit) {
   EXPECT_NEAR(gyro.value, 0.35 * M_PI / 180, std::max(4 * gyro.se, 0.02 * M_PI / 180));
   const double eg = TrueEg(run);
   EXPECT_NEAR(c.last_inc.eg_rad_per_mps2, eg, std::max(3 * c.last_inc.eg_se_rad_per_mps2, 0.01 * eg));
+  // The identifiability note counts the whole window's chunks, the prior's included, as the full
+  // fit does ("N of M chunks have a yaw rate"; it read N > M when M left the prior's out).
+  const auto yaw_chunks = [](const IdentificationResult& r) {
+    const std::regex re("\\(([0-9]+) of ([0-9]+) chunks have a yaw rate\\)");
+    std::smatch m;
+    for (const std::string& n : r.identifiability.notes)
+      if (std::regex_search(n, m, re)) return std::make_pair(std::stoul(m[1].str()), std::stoul(m[2].str()));
+    ADD_FAILURE() << "no yaw-rate note";
+    return std::make_pair(0ul, 0ul);
+  };
+  const auto [inc_yaw, inc_all] = yaw_chunks(c.last_inc);
+  const auto [full_yaw, full_all] = yaw_chunks(c.last_full);
+  EXPECT_LE(inc_yaw, inc_all);
+  EXPECT_EQ(inc_all, c.last_total);
+  EXPECT_EQ(inc_yaw, full_yaw);
+  EXPECT_EQ(inc_all, full_all);
 }
 
 // A prior whose linearisation points lie far from the estimate (every chunk's point moved by
