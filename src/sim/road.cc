@@ -233,7 +233,7 @@ void Roundabout(RoadBuilder& b, Rng& rng, RoadType type, double limit) {
 }
 
 // Manoeuvring at walking pace (a car park, a yard): tight turns R 4.5-7 m of 90-270 deg at
-// 1.5-3 m/s, steering-wheel angles of 300-500 deg; the estimator's gate rejects them (v_min).
+// 1.5-3 m/s, steering-wheel angles of 300-700 deg; the estimator's gate rejects them (v_min).
 void ParkingTurns(RoadBuilder& b, Rng& rng, int count) {
   for (int k = 0; k < count; ++k) {
     const double limit = rng.Uniform(1.5, 3.0);

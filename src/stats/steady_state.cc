@@ -59,23 +59,15 @@ void SteadyStateStats::Forget(double f) noexcept {
   open_.v_r *= f;
 }
 
-RegressionStats SteadyStateStats::without_yaw() const {
+SteadyStateStats SteadyStateStats::Closed() const {
   SteadyStateStats closed = *this;
   closed.CloseStretch();
-  return closed.without_yaw_;
+  return closed;
 }
 
-RegressionStats SteadyStateStats::with_yaw() const {
-  SteadyStateStats closed = *this;
-  closed.CloseStretch();
-  return closed.with_yaw_;
-}
-
-InstrumentedStats SteadyStateStats::with_yaw_instrumented() const {
-  SteadyStateStats closed = *this;
-  closed.CloseStretch();
-  return closed.with_yaw_iv_;
-}
+RegressionStats SteadyStateStats::without_yaw() const { return Closed().without_yaw_; }
+RegressionStats SteadyStateStats::with_yaw() const { return Closed().with_yaw_; }
+InstrumentedStats SteadyStateStats::with_yaw_instrumented() const { return Closed().with_yaw_iv_; }
 
 SteadyStateEstimate SteadyStateFromSolution(const LsSolution& s, double l) {
   SteadyStateEstimate e;
@@ -101,15 +93,12 @@ SteadyStateEstimate SteadyStateFromSolution(const LsSolution& s, double l) {
 }
 
 SteadyStateEstimate SteadyStateStats::Estimate(double l, bool use_yaw_rate) const {
-  LsSolution s;
-  if (use_yaw_rate) {
-    // The instrumented regression once it has its observations (a state written before it has
-    // none: the plain one stands in until then).
-    const InstrumentedStats iv = with_yaw_instrumented();
-    s = iv.m() >= 10 ? iv.Solve() : with_yaw().Solve();
-  } else {
-    s = without_yaw().Solve();
-  }
+  const SteadyStateStats c = Closed();
+  // With the yaw rate, the instrumented regression once it has its observations (a state written
+  // before it has none: the plain one stands in until then).
+  const LsSolution s = !use_yaw_rate                 ? c.without_yaw_.Solve()
+                       : c.with_yaw_iv_.m() >= 10 ? c.with_yaw_iv_.Solve()
+                                                    : c.with_yaw_.Solve();
   return SteadyStateFromSolution(s, l);
 }
 

@@ -1,6 +1,6 @@
 // Sufficient statistics of a 3-regressor instrumental-variables regression y = x' theta + e with
-// instruments z (uncorrelated with e and with the noise in x): X'WX, X'Wy, y'Wy, Z'WX, Z'WZ, Z'Wy,
-// the weights' sum n and the observations m. Exact, O(1) memory, mergeable by addition, optional
+// instruments z (uncorrelated with e and with the noise in x): the plain regression's X'WX, X'Wy,
+// y'Wy, n and m (a RegressionStats over the same observations) and Z'WX, Z'WZ, Z'Wy. Exact, O(1) memory, mergeable by addition, optional
 // exponential forgetting. theta = (Z'WX)^-1 Z'Wy; its covariance
 // sigma^2 (Z'WX)^-1 Z'WZ (X'WZ)^-1 with sigma^2 = sum w e^2 / (m - 3).
 #pragma once
@@ -21,19 +21,20 @@ class InstrumentedStats {
   void Merge(const InstrumentedStats& other) noexcept;
   void Forget(double factor) noexcept;
   LsSolution Solve() const;
-  double n() const { return n_; }
-  double m() const { return m_; }
+  double n() const { return plain_.n(); }
+  double m() const { return plain_.m(); }
 
-  // {"xtx": [9], "xty": [3], "yty", "ztx": [9], "ztz": [9], "zty": [3], "n", "m"}: exact round
-  // trip; FromJson throws CodecError naming the missing, malformed or non-finite number.
+  // {"xtx": [9], "xty": [3], "yty", "ztx": [9], "ztz": [9], "zty": [3], "n", "m"} (the plain
+  // regression's keys, "m" always written and required): exact round trip; FromJson throws
+  // CodecError naming the missing, malformed or non-finite number.
   nlohmann::json ToJson() const;
   static InstrumentedStats FromJson(const JsonIn& in);
   bool operator==(const InstrumentedStats&) const = default;
 
  private:
-  std::array<double, 9> xtx_{}, ztx_{}, ztz_{};
-  Vec xty_{}, zty_{};
-  double yty_ = 0, n_ = 0, m_ = 0;
+  RegressionStats plain_;  // X'WX, X'Wy, y'Wy, n, m of the same observations
+  std::array<double, 9> ztx_{}, ztz_{};
+  Vec zty_{};
 };
 
 }  // namespace ndsid::stats

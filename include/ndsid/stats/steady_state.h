@@ -63,6 +63,7 @@ class SteadyStateStats {
 
  private:
   void CloseStretch() noexcept;  // adds the open stretch's means as one observation
+  SteadyStateStats Closed() const;  // a copy with the open stretch closed
   RegressionStats without_yaw_;
   RegressionStats with_yaw_;
   InstrumentedStats with_yaw_iv_;  // empty in a state written before it: with_yaw_ stands in
