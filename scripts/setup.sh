@@ -32,9 +32,10 @@ DEB_PACKAGES=(
   python3 python3-venv python3-pip
 )
 
-# The arm64 cross build's host tools: the cross GCC 12, mmdebstrap for the sysroot, qemu-user
-# to run the arm64 programs and tests, dpkg-dev for dpkg-shlibdeps (the package's Depends).
-ARM64_HOST_PACKAGES=(crossbuild-essential-arm64 mmdebstrap qemu-user-static dpkg-dev)
+# The arm64 cross build's host tools: the cross GCC 12, mmdebstrap for the sysroot and the VM
+# root, qemu-user to run the arm64 programs and tests, dpkg-dev for dpkg-shlibdeps (the
+# package's Depends), qemu-system-arm for the arm64 VM test bed (tests/vm/arm64_unit_test.sh).
+ARM64_HOST_PACKAGES=(crossbuild-essential-arm64 mmdebstrap qemu-user-static dpkg-dev qemu-system-arm)
 
 arch=amd64
 if [[ "${1:-}" == "--arch" ]]; then

@@ -1,16 +1,23 @@
 #!/usr/bin/env bash
-# Boots a throw-away qemu VM from this machine's own Debian packages and runs one test script
-# in it (docs/daemon.md, "The VM test bed"):
+# Boots a throw-away qemu VM from Debian packages and runs one test script in it
+# (docs/daemon.md, "The VM test bed"):
 #
-#   tests/vm/run_vm.sh [--systemd] [--timeout S] [--mem MB] [--smp N] TEST_SCRIPT [ARGS...]
+#   tests/vm/run_vm.sh [--systemd] [--timeout S] [--mem MB] [--smp N] [--keep]
+#                      [--arch amd64|arm64] [--root DIR] [--rw-root] [--share DIR]... [--icount]
+#                      TEST_SCRIPT [ARGS...]
 #
-# - kernel: the newest installed /boot/vmlinuz-<ver> with its modules in /lib/modules/<ver>
-#   (Debian linux-image-amd64); NDSID_VM_KERNEL=<ver> picks another one.
-# - initramfs, built on the fly in a temporary folder: busybox-static plus the modules for
-#   virtio/9p/overlay/CAN (with their dependencies from modules.dep).
-# - root file system: this machine's / read-only over 9p (virtfs), under a tmpfs overlay, so
-#   the build tree, the tools and the Python venv are all there and nothing is installed; every
-#   write inside the VM goes to RAM and is gone afterwards.
+# - kernel: the newest <root>/boot/vmlinuz-<ver> with its modules in <root>/lib/modules/<ver>
+#   (Debian linux-image-amd64 / linux-image-arm64); NDSID_VM_KERNEL=<ver> picks another one.
+# - initramfs, built on the fly in a temporary folder: the root's busybox-static plus the modules
+#   for virtio/9p/overlay/CAN (with their dependencies from modules.dep).
+# - root file system: this machine's / (or --root DIR, e.g. the arm64 root that
+#   tests/vm/arm64_root.sh makes) read-only over 9p (virtfs), under a tmpfs overlay, so every
+#   write inside the VM goes to RAM and is gone afterwards; --rw-root mounts DIR writable
+#   without the overlay (how arm64_root.sh installs its packages). Each --share DIR is mounted
+#   read-only at the same path inside (the project's source tree, a package's folder).
+# - --arch arm64: qemu-system-aarch64, machine virt with Cortex-A53 cores; --icount counts
+#   instructions: one instruction is one nanosecond of the guest's clock (-icount shift=0,
+#   one CPU), so a process's CPU time inside is its instruction count (docs/install.md).
 # - results: a second, writable 9p share, mounted at /vmresults inside (the directory
 #   $NDSID_VM_RESULTS, default a temporary one that is removed unless --keep).
 # - without --systemd: the init runs TEST_SCRIPT in a chroot of the overlay (proc, sys, dev,
@@ -23,7 +30,8 @@
 # Prints the boot times it measured (boot-to-shell / boot-to-multi-user) on stderr.
 set -euo pipefail
 
-systemd=0 timeout_s=600 mem=1024 smp=2 keep=0
+systemd=0 timeout_s=600 mem=1024 smp=2 keep=0 arch=amd64 vmroot=/ rwroot=0 icount=0
+shares=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --systemd) systemd=1; shift ;;
@@ -31,7 +39,12 @@ while [[ $# -gt 0 ]]; do
     --mem) mem="$2"; shift 2 ;;
     --smp) smp="$2"; shift 2 ;;
     --keep) keep=1; shift ;;
-    -h|--help) sed -n '2,23p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --arch) arch="$2"; shift 2 ;;
+    --root) vmroot="$(cd "$2" && pwd)"; shift 2 ;;
+    --rw-root) rwroot=1; shift ;;
+    --share) shares+=("$(cd "$2" && pwd)"); shift 2 ;;
+    --icount) icount=1; smp=1; shift ;;
+    -h|--help) sed -n '2,31p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     --) shift; break ;;
     -*) echo "run_vm: unknown option $1" >&2; exit 2 ;;
     *) break ;;
@@ -40,23 +53,37 @@ done
 [[ $# -ge 1 ]] || { echo "usage: run_vm.sh [--systemd] [--timeout S] TEST_SCRIPT [ARGS...]" >&2; exit 2; }
 test_script="$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; shift  # symlinks kept (a venv python)
 [[ -x "$test_script" ]] || { echo "run_vm: $test_script is not executable" >&2; exit 2; }
+# The script's path inside the VM: under --root DIR without DIR, under a --share as it is.
+vm_script="$test_script"
+if [[ "$vmroot" != / ]]; then
+  vm_script=""
+  [[ "$test_script" == "$vmroot"/* ]] && vm_script="${test_script#"$vmroot"}"
+  for d in "${shares[@]}"; do [[ "$test_script" == "$d"/* ]] && vm_script="$test_script"; done
+  [[ -n "$vm_script" ]] || { echo "run_vm: $test_script is neither in --root nor in a --share" >&2; exit 2; }
+fi
 
 skip() { echo "run_vm: SKIPPED: $*" >&2; exit 77; }
-qemu="$(command -v qemu-system-x86_64 || true)"
-[[ -n "$qemu" ]] || skip "qemu-system-x86_64 not installed (Debian package qemu-system-x86)"
+case "$arch" in
+  amd64) qemu_bin=qemu-system-x86_64 qemu_pkg=qemu-system-x86 machine=() console=ttyS0 ;;
+  arm64) qemu_bin=qemu-system-aarch64 qemu_pkg=qemu-system-arm machine=(-M virt -cpu cortex-a53) console=ttyAMA0 ;;
+  *) echo "run_vm: --arch $arch: amd64 or arm64" >&2; exit 2 ;;
+esac
+qemu="$(command -v "$qemu_bin" || true)"
+[[ -n "$qemu" ]] || skip "$qemu_bin not installed (Debian package $qemu_pkg)"
+rp="${vmroot%/}"  # the root's prefix on this host ("" for /)
 busybox=""
-for b in /bin/busybox /usr/bin/busybox; do
+for b in "$rp/bin/busybox" "$rp/usr/bin/busybox"; do
   if [[ -x "$b" ]] && file -L "$b" 2>/dev/null | grep -q "statically linked"; then busybox="$b"; break; fi
 done
-[[ -n "$busybox" ]] || skip "no static busybox (Debian package busybox-static)"
+[[ -n "$busybox" ]] || skip "no static busybox in $vmroot (Debian package busybox-static)"
 kver="${NDSID_VM_KERNEL:-}"
 if [[ -z "$kver" ]]; then
-  for k in $(ls /boot/vmlinuz-* 2>/dev/null | sed 's|/boot/vmlinuz-||' | sort -V -r); do
-    if [[ -f "/lib/modules/$k/modules.dep" ]]; then kver="$k"; break; fi
+  for k in $(ls "$rp"/boot/vmlinuz-* 2>/dev/null | sed "s|^$rp/boot/vmlinuz-||" | sort -V -r); do
+    if [[ -f "$rp/lib/modules/$k/modules.dep" ]]; then kver="$k"; break; fi
   done
 fi
-[[ -n "$kver" && -r "/boot/vmlinuz-$kver" && -f "/lib/modules/$kver/modules.dep" ]] ||
-  skip "no readable kernel with modules (/boot/vmlinuz-<ver> + /lib/modules/<ver>; Debian package linux-image-amd64)"
+[[ -n "$kver" && -r "$rp/boot/vmlinuz-$kver" && -f "$rp/lib/modules/$kver/modules.dep" ]] ||
+  skip "no readable kernel with modules in $vmroot (boot/vmlinuz-<ver> + lib/modules/<ver>; Debian package linux-image-$arch)"
 
 work="$(mktemp -d /tmp/ndsid-vm.XXXXXX)"
 results="${NDSID_VM_RESULTS:-$work/results}"
@@ -73,7 +100,7 @@ cp "$busybox" "$root/bin/busybox"
 for applet in sh mount umount insmod mkdir sleep cat echo reboot poweroff switch_root chroot ip ln mknod cp date sync sed rm; do
   ln -s busybox "$root/bin/$applet"
 done
-moddir="/lib/modules/$kver"
+moddir="$rp/lib/modules/$kver"
 # Modules in load order: each one's dependencies (modules.dep lists them, deepest last) first.
 declare -A seen=()
 order=()
@@ -114,12 +141,24 @@ mount -t devtmpfs dev /dev
 ms() { read up _ </proc/uptime; echo "$up"; }
 for m in $(cat /modules.order); do insmod /lib/modules/$m 2>/dev/null; done
 mode=$(sed -n 's/.*ndsid.mode=\([a-z]*\).*/\1/p' /proc/cmdline)
-mount -t 9p -o trans=virtio,version=9p2000.L,ro,msize=512000,cache=loose hostroot /mnt/host || { echo "vm-init: 9p root failed"; reboot -f; }
-mount -t tmpfs -o size=70% tmpfs /mnt/rw
-mkdir -p /mnt/rw/upper /mnt/rw/work
-mount -t overlay -o lowerdir=/mnt/host,upperdir=/mnt/rw/upper,workdir=/mnt/rw/work overlay /mnt/root || { echo "vm-init: overlay failed"; reboot -f; }
+if grep -q ndsid.rwroot /proc/cmdline; then
+  # The root itself, writable (arm64_root.sh installs its packages into it).
+  mount -t 9p -o trans=virtio,version=9p2000.L,msize=512000 hostroot /mnt/root || { echo "vm-init: 9p root failed"; reboot -f; }
+else
+  mount -t 9p -o trans=virtio,version=9p2000.L,ro,msize=512000,cache=loose hostroot /mnt/host || { echo "vm-init: 9p root failed"; reboot -f; }
+  mount -t tmpfs -o size=70% tmpfs /mnt/rw
+  mkdir -p /mnt/rw/upper /mnt/rw/work
+  mount -t overlay -o lowerdir=/mnt/host,upperdir=/mnt/rw/upper,workdir=/mnt/rw/work overlay /mnt/root || { echo "vm-init: overlay failed"; reboot -f; }
+fi
 mkdir -p /mnt/root/vmresults
 mount -t 9p -o trans=virtio,version=9p2000.L,msize=512000 results /mnt/root/vmresults || { echo "vm-init: results share failed"; reboot -f; }
+# The --share folders, read-only at their own paths (mounted last: a share under /tmp stays seen).
+mount_shares() {
+  while read -r tag dir; do
+    mkdir -p "/mnt/root$dir"
+    mount -t 9p -o trans=virtio,version=9p2000.L,ro,msize=512000,cache=loose "$tag" "/mnt/root$dir" || { echo "vm-init: share $dir failed"; reboot -f; }
+  done </mnt/root/vmresults/.shares
+}
 echo "$(ms) $(date +%s)" >/mnt/root/vmresults/boot_shell_s
 test_cmd=$(cat /mnt/root/vmresults/.cmd)
 if [ "$mode" = systemd ]; then
@@ -158,6 +197,7 @@ RUN
            cron.service ssh.service systemd-networkd-wait-online.service; do
     ln -sf /dev/null $u/$m
   done
+  mount_shares
   exec switch_root /mnt/root /sbin/init
 fi
 # Shell mode: the test in a chroot of the overlay.
@@ -169,6 +209,7 @@ mount -t devpts devpts /mnt/root/dev/pts
 mount -t tmpfs tmpfs /mnt/root/dev/shm
 mount -t tmpfs tmpfs /mnt/root/tmp
 mount -t tmpfs tmpfs /mnt/root/run
+mount_shares
 ip link set lo up
 ip link set lo multicast on
 ip route add 224.0.0.0/4 dev lo
@@ -180,10 +221,10 @@ sync
 reboot -f
 INIT
 chmod +x "$root/init"
-(cd "$root" && find . | "$busybox" cpio -o -H newc 2>/dev/null | gzip -1) >"$work/initramfs.gz"
+(cd "$root" && find . | cpio --quiet -o -H newc | gzip -1) >"$work/initramfs.gz"
 
 # The command the VM runs: the script and its arguments, shell-quoted.
-printf 'cd %q && %q ' "$PWD" "$test_script" >"$results/.cmd"  # in the caller's folder
+printf '{ cd %q 2>/dev/null || cd /; } && %q ' "$PWD" "$vm_script" >"$results/.cmd"  # in the caller's folder
 [[ $# -gt 0 ]] && printf '%q ' "$@" >>"$results/.cmd"
 # The NDSID* variables of this environment (binaries, folders of the build) go in with it.
 : >"$results/.env"
@@ -191,18 +232,29 @@ while IFS= read -r name; do
   printf 'export %s=%q\n' "$name" "${!name}" >>"$results/.env"
 done < <(compgen -e | grep '^NDSID' || true)
 rm -f "$results/rc" "$results/boot_shell_s" "$results/multi_user_us"
+: >"$results/.shares"
+share_args=()
+for i in "${!shares[@]}"; do
+  echo "share$i ${shares[$i]}" >>"$results/.shares"
+  share_args+=(-virtfs "local,path=${shares[$i]},mount_tag=share$i,security_model=none,readonly=on,multidevs=remap")
+done
 
 mode=shell
 [[ $systemd -eq 1 ]] && mode=systemd
-append="console=ttyS0 panic=-1 no_timer_check quiet loglevel=3 rdinit=/init ndsid.mode=$mode"
+append="console=$console panic=-1 no_timer_check quiet loglevel=3 rdinit=/init ndsid.mode=$mode"
+[[ $rwroot -eq 1 ]] && append="$append ndsid.rwroot"
+extra=()
+[[ $icount -eq 1 ]] && extra+=(-icount shift=0,sleep=off)
 [[ $systemd -eq 1 ]] && append="$append systemd.show_status=0"
-echo "run_vm: kernel $kver, $smp CPUs, ${mem} MB, TCG, mode $mode, timeout ${timeout_s} s: $test_script $*" >&2
+echo "run_vm: $arch, kernel $kver, $smp CPUs, ${mem} MB, TCG$([[ $icount -eq 1 ]] && echo ", icount"), mode $mode, root $vmroot, timeout ${timeout_s} s: $vm_script $*" >&2
 start=$(date +%s.%N)
 set +e
-timeout --kill-after=10 "$timeout_s" "$qemu" -accel tcg -smp "$smp" -m "$mem" -nographic -no-reboot \
-  -kernel "/boot/vmlinuz-$kver" -initrd "$work/initramfs.gz" -append "$append" \
-  -virtfs local,path=/,mount_tag=hostroot,security_model=none,readonly=on,multidevs=remap \
-  -virtfs local,path="$results",mount_tag=results,security_model=none \
+root_ro=",readonly=on"
+[[ $rwroot -eq 1 ]] && root_ro=""
+timeout --kill-after=10 "$timeout_s" "$qemu" "${machine[@]}" -accel tcg -smp "$smp" -m "$mem" "${extra[@]}" \
+  -nographic -no-reboot -kernel "$rp/boot/vmlinuz-$kver" -initrd "$work/initramfs.gz" -append "$append" \
+  -virtfs "local,path=$vmroot,mount_tag=hostroot,security_model=none$root_ro,multidevs=remap" \
+  -virtfs local,path="$results",mount_tag=results,security_model=none "${share_args[@]}" \
   -nic none </dev/null >"$work/console.log" 2>&1
 qrc=$?
 set -e
