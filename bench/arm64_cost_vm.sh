@@ -5,6 +5,7 @@
 #   arm64_cost_vm.sh CONFIG LOG...
 set -e
 cfg_in="$1"; shift
+cfg_dir=$(dirname "$cfg_in")
 dpkg -i "$NDSID_DEB" >/tmp/install.log 2>&1 || { cat /tmp/install.log; exit 1; }
 echo "RESULT installed: $(dpkg-query -W ndsid) on $(uname -m), $(nproc) CPU"
 i=0
@@ -13,7 +14,6 @@ for log in "$@"; do
   dir=/tmp/case$i
   mkdir -p "$dir/state"
   # The config with this log, absolute paths and a state folder of its own.
-  cfg_dir=$(dirname "$cfg_in")
   awk -v logf="$log" -v st="$dir/state" -v cd="$cfg_dir" '
     /^source:/ { print "source:\n  type: log\n  logs:\n    - " logf; skip = 1; next }
     skip && /^[^ #]/ { skip = 0 }

@@ -109,7 +109,10 @@ export PATH=/usr/sbin:/usr/bin:/sbin:/bin DEBIAN_FRONTEND=noninteractive \
   DEBCONF_NONINTERACTIVE_SEEN=true LC_ALL=C LANG=C INITRD=No
 cd /var/cache/apt/archives
 opts="--force-depends --force-confold --force-unsafe-io"
-if [ ! -e /var/lib/dpkg/ndsid-unpacked ]; then  # a second run (after a timeout) only configures
+# After a timeout the root stays in <root>.tmp with this script: run again by hand
+# (run_vm.sh --arch arm64 --root DIR.tmp --rw-root DIR.tmp/ndsid-second-stage.sh), it only
+# configures; this script itself starts over.
+if [ ! -e /var/lib/dpkg/ndsid-unpacked ]; then
   dpkg $opts --install base-passwd_*.deb
   dpkg $opts --install base-files_*.deb
   dpkg $opts --unpack ./*.deb
