@@ -321,12 +321,17 @@ def diagnose_section(page: Page, dia_dir: str) -> None:
     if trials:
         page.add("<h3>Every candidate tried</h3>\n")
         page.add(table(["step", "effect", "added", "held-out before", "after", "ΔBIC", "EG moves", "why"],
-                       [[esc(t.get("step")), esc(t.get("effect")), "yes" if t.get("accepted") else "no",
+                       [[esc("0 (contest)" if (t.get("step") or 0) < 0 else t.get("step")), esc(t.get("effect")), "yes" if t.get("accepted") else "no",
                          num(t.get("held_out_before_mps2"), "{:.4f}"), num(t.get("held_out_after_mps2"), "{:.4f}"),
                          num(t.get("delta_bic"), "{:.1f}"),
                          (num(100 * t["eg_shift_rel"], "{:+.2f}") + " %") if t.get("eg_shift_rel") is not None else "–",
                          esc(t.get("why", ""))] for t in trials],
                        ["added" if t.get("accepted") else "" for t in trials]))
+    look_alike = d.get("look_alike")
+    if look_alike:
+        page.add(f"<p>Step 0: <b>{esc(look_alike.get('effect'))}</b> was added first (rung 1): it explains more of the "
+                 f"held-out error than the time shifts ({esc(look_alike.get('why'))}); the latencies were estimated again "
+                 "with it in the model.</p>\n")
     page.add(f"<p>The ladder stopped: {esc(d.get('stop_reason', ''))}. Final effects: "
              f"<b>{esc(', '.join(d.get('final_effects', [])) or 'none')}</b>.</p>\n")
     ranking = d.get("ranking", [])

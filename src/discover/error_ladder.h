@@ -1,7 +1,10 @@
 // The error ladder (diagnosis.h, ClimbErrorLadder) as an algorithm with named state and steps,
 // in the manner of Ceres's TrustRegionMinimizer:
 //   FitStartingModel   rung 0: the starting model (or the caller's fit of it)
-//   AlignInTime        step 0: the roles' latencies (alignment.h); the data shifted, rung 0 refitted
+//   AlignInTime        step 0: the roles' latencies (alignment.h); the data shifted, rung 0 refitted,
+//                      unless an effect whose signature resembles the shifts explains more
+//                      (LookAlikeBeatsShifts): then AddLookAlikeThenAlign adds it as rung 1 and
+//                      estimates the latencies again with it in the model
 //   TrySpeedScaleFirst the speed scale read from a_x: a prior on every fit, speed_scale itself first
 //   ClimbOneRung       diagnose (the ranking), refit the best candidates one by one (TryCandidate,
 //                      judged by trial_rules.h), add the first that passes, else the EG-relevant one
@@ -10,6 +13,7 @@
 // false (nothing added: StopReason says why).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,23 +45,62 @@ class ErrorLadder {
     Refit refit;   // the refit, added as it is
   };
 
+  // A refit judged by the ladder's rules (JudgeRefit).
+  struct Judged {
+    Trial trial;            // its numbers and verdict (accepted: added at once)
+    bool eg_moves = false;  // not accepted, but EG-relevant (AddEgRelevant)
+  };
+
   // The steps.
   void FitStartingModel();
   void AlignInTime();
+  void AddLookAlikeThenAlign();
   void TrySpeedScaleFirst();
   bool ClimbOneRung();  // true when a rung was added
   void Judge();
 
   // Within a rung.
   std::vector<CandidateScore> TrialOrder(const Diagnosis& diagnosis) const;
-  bool IsTried(const CandidateScore& c, const Diagnosis& diagnosis, int tried) const;
+  bool IsTried(const CandidateScore& c, const Diagnosis& diagnosis, int tried, int most = 3) const;
   std::vector<std::string> EffectsWith(const std::string& effect) const;
   Refit RefitWith(const std::vector<std::string>& effects) const;
   // Refits with c.effect and records the trial; true when it is added at once. An EG-relevant
   // refit that is not is appended to `eg_relevant`.
+  Judged JudgeRefit(const std::string& effect, const Refit& r) const;
   bool TryCandidate(const CandidateScore& c, std::vector<EgRelevant>& eg_relevant);
   void AddEgRelevant(const std::vector<EgRelevant>& eg_relevant);
   void AddRung(const Refit& refit, const std::string& added, double dbic);
+
+  // Step 0 (error_ladder_step0.cc).
+  // A model refitted on shifted copies of the data, and the guard's verdict.
+  struct Shifted {
+    std::vector<stats::Segment> training, validation;  // the shifted copies
+    identify::IdentificationResult fit;                // the model refitted on them
+    std::string rejected;                              // "" when the guard keeps the shifts
+  };
+  Shifted ShiftAndRefit(const identify::Identifier& model, const identify::IdentificationResult& from,
+                        const std::vector<RoleLatency>& latencies) const;
+  void UseShifted(Shifted& shifted);
+  void MeasureYawNoise();
+  // fit's ComparableYawRmse (trial_rules.h) with the yaw rate shifted by `latencies`; 0 without it.
+  double ComparableYaw(const identify::IdentificationResult& fit, const std::vector<RoleLatency>& latencies) const;
+  // A contestant's path: the current model with the effect added on the data as recorded, then
+  // the latencies estimated again with it and applied under the guard.
+  struct LookAlike {
+    std::string effect;
+    Refit refit;                              // + effect, on the data as recorded
+    double dbic = 0;                          // its BIC change there
+    std::vector<RoleLatency> latencies;       // estimated with it in the model
+    std::optional<Shifted> shifted;           // kept by the guard (none: the data as recorded)
+    std::string rejected;                     // the guard's reason when it did not keep them
+    const identify::IdentificationResult& Final() const { return shifted ? shifted->fit : refit.fit; }
+  };
+  // The contest: of the candidates the current model's diagnosis on the data as recorded would
+  // refit, one the ladder would add there and that stays determined and off its bounds after its
+  // own alignment; the winner lowers the held-out errors more than the shifts alone (the outputs'
+  // relative changes summed). Every contestant is recorded as a trial (step -1).
+  std::optional<LookAlike> LookAlikeBeatsShifts(const identify::IdentificationResult& shifted);
+  std::optional<LookAlike> PathWith(const std::string& effect, Trial& trial) const;
 
   // Stopping rules.
   bool StartingFitFailed() const { return !fit_.valid; }
@@ -79,6 +122,9 @@ class ErrorLadder {
   identify::IdentificationResult fit_;          // its fit on training_ and validation_
   std::vector<stats::Segment> aligned_training_, aligned_validation_;  // step 0's shifted copies
   identify::SegmentList training_, validation_;  // what every fit reads: as recorded or step 0's copies
+  double yaw_noise_sd_ = 0;                     // the yaw rate's noise [rad/s] (MeasureYawNoise)
+  std::optional<LookAlike> look_alike_;         // step 0's contest winner, added as rung 1
+  Diagnosis contest_diagnosis_;                 // the contest's ranking (rung 0's diagnosis when it wins)
   Ladder ladder_;                               // the result, built rung by rung
 };
 

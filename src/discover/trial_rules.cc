@@ -85,17 +85,32 @@ bool IsEgRelevant(const Trial& t, const LadderOptions& options) {
          std::abs(t.eg_shift_sigma) > options.eg_relevant_shift_sigma && std::abs(t.eg_shift_rel) > options.eg_relevant_shift_rel;
 }
 
-std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned) {
+double ComparableYawRmse(const identify::IdentificationResult& fit, double yaw_noise_sd, double yaw_shift_samples) {
+  const double w = yaw_shift_samples - std::floor(yaw_shift_samples);
+  const double left = (1 - w) * (1 - w) + w * w;  // share of the white noise's variance a read at w keeps
+  const double rmse = HeldOutYawRmse(fit);
+  return std::sqrt(rmse * rmse + (1 - left) * yaw_noise_sd * yaw_noise_sd);
+}
+
+double HeldOutChange(const identify::IdentificationResult& before, const identify::IdentificationResult& after,
+                     double yaw_after) {
+  double sum = HeldOutRmse(after) / HeldOutRmse(before) - 1;
+  if (BothOutputsScored(before, after)) sum += yaw_after / HeldOutYawRmse(before) - 1;
+  return sum;
+}
+
+std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned,
+                               double yaw_aligned) {
   constexpr double kNoise = 0.002;  // relative: the samples trimmed at the segments' ends
   const double ay = HeldOutRmse(aligned) / HeldOutRmse(recorded) - 1;
   const bool both = BothOutputsScored(recorded, aligned);
-  const double yaw = both ? HeldOutYawRmse(aligned) / HeldOutYawRmse(recorded) - 1 : 0.0;
+  const double yaw = both ? yaw_aligned / HeldOutYawRmse(recorded) - 1 : 0.0;
   if (!(ay > kNoise || yaw > kNoise || ay + yaw >= 0)) return "";
-  char buf[160];
+  char buf[200];
   std::snprintf(buf, sizeof buf, "the shifts raise a held-out RMSE or lower none: a_y %+.1f %%", 100 * ay);
   std::string why = buf;
   if (both) {
-    std::snprintf(buf, sizeof buf, ", yaw rate %+.1f %%", 100 * yaw);
+    std::snprintf(buf, sizeof buf, ", yaw rate %+.1f %% (its noise as read at whole samples)", 100 * yaw);
     why += buf;
   }
   return why;

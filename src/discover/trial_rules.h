@@ -52,12 +52,27 @@ void RecordEgShift(Trial& t, const identify::IdentificationResult& before, const
 // change and the EG shift.
 bool IsEgRelevant(const Trial& t, const LadderOptions& options);
 
+// A fit's held-out yaw-rate RMSE [rad/s] as if the yaw rate were read at whole samples. Step 0
+// reads a shifted yaw rate between samples, (1-w) y_k + w y_k+1, which keeps only (1-w)^2 + w^2
+// of its white noise's variance: the RMSE falls without any better model (on a drive whose
+// yaw rate sat at 1.13x its noise floor, a 43 ms shift at 50 Hz lowered it 6 % through this
+// alone). The variance removed, from the noise's standard deviation yaw_noise_sd (the floor of
+// JudgeOutputs), is added back. yaw_shift_samples: the shift in samples (0: none).
+double ComparableYawRmse(const identify::IdentificationResult& fit, double yaw_noise_sd, double yaw_shift_samples);
+
+// The fitted outputs' relative changes of the held-out RMSE from `before` to `after`, summed: a_y's,
+// and with both outputs the yaw rate's, `yaw_after` being after's ComparableYawRmse.
+double HeldOutChange(const identify::IdentificationResult& before, const identify::IdentificationResult& after,
+                     double yaw_after);
+
 // Step 0's guard: the shifts are kept only when no fitted output's held-out RMSE rises by more
 // than 0.2 % (the shifted data lose a few samples at the segments' ends) and the outputs'
-// relative changes sum to a fall. A shift found on a failing model (an effect outside the model
-// reads as a lead or lag) otherwise pre-empts the effect and makes the held-out error worse.
+// relative changes sum to a fall; the aligned yaw rate's RMSE is yaw_aligned, its
+// ComparableYawRmse. A shift found on a failing model (an effect outside the model reads as a
+// lead or lag) otherwise pre-empts the effect and makes the held-out error worse.
 // "" when kept, else why not, in words.
-std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned);
+std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned,
+                               double yaw_aligned);
 
 // The determination rule (LadderOptions::determined_z): every parameter of `effect` in `fit` but
 // the per-drive ones lies more than z standard errors from its neutral value. "" when so, else the

@@ -124,6 +124,16 @@ struct LadderOptions {
   // on data shifted by the significant ones.
   bool align = true;
   AlignmentOptions alignment;
+  // Significant shifts compete with the effects whose signature resembles them: the candidates the
+  // starting model's diagnosis on the data as recorded would refit (look_alike_contestants at
+  // most, not the delays themselves; more than a rung's three, since a real latency beside the
+  // look-alike ranks other candidates above it: a lever arm ranked sixth beside a 60 ms gyro
+  // latency) are refitted there, each with the latencies estimated again with it in the model.
+  // One the ladder's rules would add, still determined after its own alignment, and whose
+  // held-out errors then fall more than the shifts' (relative changes of both outputs summed) is
+  // added first, with its own shifts (Ladder::look_alike).
+  bool look_alike_contest = true;
+  int look_alike_contestants = 6;
   // The window's standstills (docs/two-outputs.md): every fit and score of the ladder uses them.
   std::vector<gate::StandstillStop> standstill;
   // After the ladder stops, an output whose held-out RMSE is more than this times its noise
@@ -188,7 +198,14 @@ struct Ladder {
   std::vector<RoleLatency> alignment;      // step 0 (empty when not asked for)
   bool aligned = false;                    // some latency applied: rungs are fits on shifted data
   std::string alignment_rejected;          // significant shifts not applied, and why ("" otherwise)
-  identify::IdentificationResult before_alignment;   // the starting model on the data as recorded
+  identify::IdentificationResult before_alignment;   // the aligned rung's model on the data as recorded
+  // Step 0's contest (physics.md §5.0): an effect that explains more of the held-out error than
+  // the shifts (one whose signature resembles them, a lever arm; or a larger error the shifts were
+  // found on, a gyro offset) is added first (rung 1; diagnoses[0] is then the starting model's
+  // ranking on the data as recorded), and the latencies are estimated again with it in the model.
+  // Its name and the numbers of the contest ("" when the shifts won or none were significant).
+  std::string look_alike, look_alike_why;
+  int aligned_rung = 0;                    // the rung whose fit `aligned` refers to (1 after a look-alike)
   std::vector<OutputVerdict> verdicts;     // the final model's outputs against their noise floors
   // Empty when EG is settled; else which refits of the last rung move EG, by how much (LadderOptions).
   std::string eg_unsettled;

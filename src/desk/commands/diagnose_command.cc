@@ -123,9 +123,16 @@ std::map<config::Role, double> ReportAlignment(const discover::Ladder& ladder, c
                                 {"applied", l.apply}, {"configured_latency_s", configured}, {"method", l.method},
                                 {"note", l.note}});
   }
+  if (!ladder.look_alike.empty()) {
+    std::printf("  %s added first (rung 1), it explains more of the held-out error than the shifts: %s; the latencies above "
+                "are estimated again with it\n", ladder.look_alike.c_str(), ladder.look_alike_why.c_str());
+    r.md += "\n" + ladder.look_alike + " added first (rung 1), it explains more of the held-out error than the shifts: " +
+            ladder.look_alike_why + ". The latencies above are estimated again with it in the model.\n";
+    r.j["look_alike"] = {{"effect", ladder.look_alike}, {"why", ladder.look_alike_why}};
+  }
   if (ladder.aligned) {
     const auto& b = ladder.before_alignment;
-    const auto& f = ladder.rungs.front().fit;
+    const auto& f = ladder.rungs.at(static_cast<size_t>(ladder.aligned_rung)).fit;
     std::printf("  aligned: RMSE train %.4f -> %.4f, held-out %.4f -> %.4f, EG %.3f -> %.3f deg/g\n", b.rmse_train_mps2,
                 f.rmse_train_mps2, b.rmse_validation_mps2, f.rmse_validation_mps2, b.eg_deg_per_g, f.eg_deg_per_g);
     r.md += "\nAligned: RMSE train " + Fmt("%.4f → %.4f", b.rmse_train_mps2, f.rmse_train_mps2) + ", held-out " +
@@ -206,9 +213,10 @@ void ReportLadder(const discover::Ladder& ladder, const model::EffectLibrary& li
   r.md += "\n### Candidates refitted\n\n| rung | effect | held-out RMSE before → after | verdict |\n|---|---|---|---|\n";
   r.j["trials"] = nlohmann::json::array();
   for (const auto& t : ladder.trials) {
-    std::printf("  rung %d + %-16s %.4f -> %.4f  %s\n", t.step, t.effect.c_str(), t.held_out_before, t.held_out_after,
+    const std::string where = t.step < 0 ? "step 0" : "rung " + std::to_string(t.step);  // step 0: its contest
+    std::printf("  %-7s + %-16s %.4f -> %.4f  %s\n", where.c_str(), t.effect.c_str(), t.held_out_before, t.held_out_after,
                 t.why.c_str());
-    r.md += "| " + std::to_string(t.step) + " | " + t.effect + " | " + Fmt("%.4f", t.held_out_before) + " → " +
+    r.md += "| " + where + " | " + t.effect + " | " + Fmt("%.4f", t.held_out_before) + " → " +
             Fmt("%.4f", t.held_out_after) + " | " + t.why + " |\n";
     r.j["trials"].push_back({{"step", t.step}, {"effect", t.effect}, {"accepted", t.accepted},
                              {"held_out_before_mps2", t.held_out_before}, {"held_out_after_mps2", t.held_out_after},
