@@ -95,7 +95,7 @@ void ErrorLadder::AlignInTime() {
 
 // One contestant's path (LookAlike); none when its refit fails or lowers the held-out errors on
 // the data as recorded by less than the ladder's margin (the path, a latency search and a refit,
-// is the contest's cost: 4–10 s per contestant on 0.6 h), or when its parameter is not
+// is the contest's cost), or when its parameter is not
 // determined (or sits on a bound) once the data are aligned for the model with it: the shifts
 // then explain what it took up. The refit on the data as recorded need not pass the ladder's
 // other rules (BIC, determination): those are judged on the path's end.
