@@ -45,6 +45,7 @@ Diagnosis Diagnose(const identify::Identifier& identifier, const std::vector<dou
   SignatureSums signatures(identifier.wheelbase_m(), eg);
   ScoreSums sums = SumChunks(identifier, sm, chunks, weights, per_drive, signatures);
   d.residuals = sums.n;
+  d.rss = sums.rss;
   if (sums.n == 0) return d;
   d.rmse = sums.n_a > 0 ? std::sqrt(sums.rss_a / static_cast<double>(sums.n_a)) : 0.0;  // a_y, unweighted
   const double noise_level = identify::ResidualNoiseLevel(sums.chunk_residuals);  // sigma^2 tau of the residuals as scored

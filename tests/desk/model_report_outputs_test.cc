@@ -73,6 +73,29 @@ TEST(Diagnose, RanksSteerOffsetFirstOnSteerOffsetData) {
   EXPECT_NEAR(j["ranking"][0]["one_step"].get<double>(), kTrueOffsetRad, 0.15 * kTrueOffsetRad);
 }
 
+// Catches: a "dRSS %" that is not a share of the RSS the candidates were scored on (with two
+// outputs it divided the stacked, weighted drop by the unweighted a_y RSS and printed 119 %, 422 %).
+// Each share lies in [0, 1], the ranking falls with it, and every predicted RMSE is the same
+// RMSE times sqrt(1 - share) (diagnosis.cc, RankByPredictedDrop).
+TEST(Diagnose, DrssSharesAreSharesOfTheScoredRss) {
+  for (const char* run : {"diagnose_out", "keep_out"}) {
+    const auto ranking = ReadJson(kOut / run / "diagnosis.json")["ranking"];
+    ASSERT_GE(ranking.size(), 2u);
+    const auto& last = ranking.back();
+    const double rmse = last["rmse_predicted_mps2"].get<double>() / std::sqrt(1.0 - last["drss_share"].get<double>());
+    double previous = 1.0;
+    for (const auto& c : ranking) {
+      const double share = c["drss_share"].get<double>();
+      EXPECT_GE(share, 0.0) << c.dump();
+      EXPECT_LE(share, previous + 1e-12) << c.dump();
+      previous = share;
+      EXPECT_NEAR(c["rmse_predicted_mps2"].get<double>(), rmse * std::sqrt(1.0 - share), 1e-6 * rmse) << run << " " << c.dump();
+    }
+    std::printf("%s: %s first, %.1f %% of the scored RSS\n", run, ranking[0]["effect"].get<std::string>().c_str(),
+                100 * ranking[0]["drss_share"].get<double>());
+  }
+}
+
 // Catches: the verdict after the ladder missing for an output, or a floor that is not the noise.
 // The fixtures fit both outputs (the example config's yaw rate makes it the default). From the
 // bare model (diagnose_out) the ladder adds steer_offset and then road_bank (the simulator's

@@ -46,6 +46,9 @@ struct Diagnosis {
   std::string outputs = "a_y";  // the residuals scored: "a_y", or "a_y and yaw rate" (stacked, weighted)
   double rmse = 0;              // a_y, unweighted
   size_t residuals = 0;
+  // The RSS scored (with two outputs stacked, each weighted by 1/sqrt(sigma^2 tau)): every drss
+  // below, the candidates' and the signatures', is a drop of it, so drss / rss is its share.
+  double rss = 0;
   std::vector<CandidateScore> ranked;  // by drss, largest first
   std::vector<SignatureCorrelation> signatures;  // by drss
   bool unexplained = false;            // structure left that no candidate explains

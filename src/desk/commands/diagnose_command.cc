@@ -155,7 +155,7 @@ void ReportRanking(const discover::Diagnosis& d, DiagnoseReport& r) {
               "pred.RMSE", "dRSS %", "unique", "z_rob", "sig", "confounded with");
   r.md += "## Candidate ranking (first diagnosis of " + d.model + ", RMSE " + Fmt("%.4f", d.rmse) +
           " m/s²)\n\n| rank | effect | parameter | one-step | unit | predicted RMSE | ΔRSS share | uniqueness | robust z | significant | confounded with |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
-  const double rss = d.rmse * d.rmse * static_cast<double>(d.residuals);
+  const double rss = d.rss;  // the scored RSS: the shares below are of it (at most 100 %)
   int rank = 0;
   for (const auto& c : d.ranked) {
     ++rank;
