@@ -243,12 +243,11 @@ ErrorLadder::Judged ErrorLadder::JudgeRefit(const std::string& effect, const Ref
   if (both) t.yaw_before = yb, t.yaw_after = ya;
   const std::string contradicts = PriorContradiction(fit_, f2, ladder_config_.priors);
   if (!contradicts.empty()) better = false;
-  const std::string undetermined = UndeterminedParameters(*library_.Get(effect), f2, options_.determined_z);
-  const std::string on_bound = ParametersOnTheirBounds(*library_.Get(effect), f2);
-  const std::string implausible = undetermined + (undetermined.empty() || on_bound.empty() ? "" : ", ") + on_bound;
+  const std::string implausible = ImplausibleParameters(*library_.Get(effect), f2, options_.determined_z);
+  const bool on_bound = !ParametersOnTheirBounds(*library_.Get(effect), f2).empty();
   t.accepted = better && dbic < 0 && implausible.empty();
   RecordEgShift(t, fit_, f2);
-  j.eg_moves = both && !t.accepted && contradicts.empty() && on_bound.empty() && IsEgRelevant(t, options_);
+  j.eg_moves = both && !t.accepted && contradicts.empty() && !on_bound && IsEgRelevant(t, options_);
   t.why = ExplainTrial(t, better, both, j.eg_moves, contradicts, options_.min_relative_improvement);
   if (better && dbic < 0 && !implausible.empty()) {
     char why[160];

@@ -2,8 +2,8 @@
 // in the manner of Ceres's TrustRegionMinimizer:
 //   FitStartingModel   rung 0: the starting model (or the caller's fit of it)
 //   AlignInTime        step 0: the roles' latencies (alignment.h); the data shifted, rung 0 refitted,
-//                      unless an effect whose signature resembles the shifts explains more
-//                      (LookAlikeBeatsShifts): then AddLookAlikeThenAlign adds it as rung 1 and
+//                      unless an effect explains more than the shifts (one whose signature
+//                      resembles them; LookAlikeBeatsShifts): then AddLookAlikeThenAlign adds it as rung 1 and
 //                      estimates the latencies again with it in the model
 //   TrySpeedScaleFirst the speed scale read from a_x: a prior on every fit, speed_scale itself first
 //   ClimbOneRung       diagnose (the ranking), refit the best candidates one by one (TryCandidate,
@@ -64,9 +64,10 @@ class ErrorLadder {
   bool IsTried(const CandidateScore& c, const Diagnosis& diagnosis, int tried, int most = 3) const;
   std::vector<std::string> EffectsWith(const std::string& effect) const;
   Refit RefitWith(const std::vector<std::string>& effects) const;
+  // The ladder's rules on a refit with `effect` added, against the current fit.
+  Judged JudgeRefit(const std::string& effect, const Refit& r) const;
   // Refits with c.effect and records the trial; true when it is added at once. An EG-relevant
   // refit that is not is appended to `eg_relevant`.
-  Judged JudgeRefit(const std::string& effect, const Refit& r) const;
   bool TryCandidate(const CandidateScore& c, std::vector<EgRelevant>& eg_relevant);
   void AddEgRelevant(const std::vector<EgRelevant>& eg_relevant);
   void AddRung(const Refit& refit, const std::string& added, double dbic);
@@ -82,6 +83,8 @@ class ErrorLadder {
                         const std::vector<RoleLatency>& latencies) const;
   void UseShifted(Shifted& shifted);
   void MeasureYawNoise();
+  // The data as recorded that the held-out errors are judged on (the training data when nothing is held out).
+  const identify::SegmentList& RecordedHeldOut() const { return validation_in_.empty() ? training_in_ : validation_in_; }
   // fit's ComparableYawRmse (trial_rules.h) with the yaw rate shifted by `latencies`; 0 without it.
   double ComparableYaw(const identify::IdentificationResult& fit, const std::vector<RoleLatency>& latencies) const;
   // A contestant's path: the current model with the effect added on the data as recorded, then
@@ -96,9 +99,10 @@ class ErrorLadder {
     const identify::IdentificationResult& Final() const { return shifted ? shifted->fit : refit.fit; }
   };
   // The contest: of the candidates the current model's diagnosis on the data as recorded would
-  // refit, one the ladder would add there and that stays determined and off its bounds after its
-  // own alignment; the winner lowers the held-out errors more than the shifts alone (the outputs'
-  // relative changes summed). Every contestant is recorded as a trial (step -1).
+  // refit, one whose refit there lowers the held-out errors by the ladder's margin and that stays
+  // determined and off its bounds after its own alignment (PathWith); the winner lowers the
+  // held-out errors more than the shifts alone by that margin (the outputs' relative changes
+  // summed). Every contestant is recorded as a trial (step -1).
   std::optional<LookAlike> LookAlikeBeatsShifts(const identify::IdentificationResult& shifted);
   std::optional<LookAlike> PathWith(const std::string& effect, Trial& trial) const;
 

@@ -49,15 +49,13 @@ ErrorLadder::Shifted ErrorLadder::ShiftAndRefit(const identify::Identifier& mode
 
 double ErrorLadder::ComparableYaw(const IdentificationResult& fit, const std::vector<RoleLatency>& latencies) const {
   if (!fit.yaw_rate_output) return 0.0;
-  const identify::SegmentList& judged = validation_in_.empty() ? training_in_ : validation_in_;
-  return ComparableYawRmse(fit, yaw_noise_sd_, YawShiftSamples(latencies, judged));
+  return ComparableYawRmse(fit, yaw_noise_sd_, YawShiftSamples(latencies, RecordedHeldOut()));
 }
 
 // The yaw rate's noise (its floor, JudgeOutputs) on the data as recorded, for ComparableYaw.
 void ErrorLadder::MeasureYawNoise() {
-  const identify::SegmentList& judged = validation_in_.empty() ? training_in_ : validation_in_;
   if (!fit_.yaw_rate_output) return;
-  for (const OutputVerdict& v : JudgeOutputs(current_, fit_.AllValues(), judged, true, options_.unexplained_ratio, 0.0,
+  for (const OutputVerdict& v : JudgeOutputs(current_, fit_.AllValues(), RecordedHeldOut(), true, options_.unexplained_ratio, 0.0,
                                              options_.a_y_floor_factor, options_.yaw_floor_factor)) {
     if (v.output == "yaw rate") yaw_noise_sd_ = v.floor * M_PI / 180.0;
   }
@@ -118,17 +116,12 @@ std::optional<ErrorLadder::LookAlike> ErrorLadder::PathWith(const std::string& e
   if (std::any_of(p.latencies.begin(), p.latencies.end(), [](const RoleLatency& l) { return l.apply; })) {
     Shifted s = ShiftAndRefit(p.refit.model, p.refit.fit, p.latencies);
     p.rejected = s.rejected;
-    if (s.rejected.empty()) {
-      p.shifted = std::move(s);
-    }
+    if (s.rejected.empty()) p.shifted = std::move(s);
   }
   if (!p.shifted) {
     for (RoleLatency& l : p.latencies) l.apply = false;
   }
-  const model::Effect& e = *library_.Get(effect);
-  const std::string undetermined = UndeterminedParameters(e, p.Final(), options_.determined_z);
-  const std::string on_bound = ParametersOnTheirBounds(e, p.Final());
-  const std::string lost = undetermined + (undetermined.empty() || on_bound.empty() ? "" : ", ") + on_bound;
+  const std::string lost = ImplausibleParameters(*library_.Get(effect), p.Final(), options_.determined_z);
   if (!lost.empty()) {
     trial.why += "; step 0's contest: with its own shifts (" + ShiftsInWords(p.latencies) + ") " + lost;
     return std::nullopt;

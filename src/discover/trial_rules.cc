@@ -116,6 +116,12 @@ std::string AlignmentRejection(const identify::IdentificationResult& recorded, c
   return why;
 }
 
+std::string ImplausibleParameters(const model::Effect& effect, const identify::IdentificationResult& fit, double z) {
+  const std::string undetermined = UndeterminedParameters(effect, fit, z);
+  const std::string on_bound = ParametersOnTheirBounds(effect, fit);
+  return undetermined + (undetermined.empty() || on_bound.empty() ? "" : ", ") + on_bound;
+}
+
 bool KeepsSpeedScale(const Trial& t, bool both) {
   return t.held_out_after <= 1.01 * t.held_out_before && (!both || t.yaw_after <= 1.01 * t.yaw_before);
 }

@@ -85,6 +85,10 @@ std::string UndeterminedParameters(const model::Effect& effect, const identify::
 // "" when none, else the parameters on their bounds, in words.
 std::string ParametersOnTheirBounds(const model::Effect& effect, const identify::IdentificationResult& fit);
 
+// The determination rule and the plausibility rule together: "" when every parameter of
+// `effect` in `fit` passes both, else the ones that do not, in words.
+std::string ImplausibleParameters(const model::Effect& effect, const identify::IdentificationResult& fit, double z);
+
 // The speed scale read from a_x is added first when neither held-out RMSE rises by more than 1 %.
 bool KeepsSpeedScale(const Trial& t, bool both);
 

@@ -131,10 +131,11 @@ struct LadderOptions {
   // starting model's diagnosis on the data as recorded would refit (look_alike_contestants at
   // most, not the delays themselves; more than a rung's three, since a real latency beside the
   // look-alike ranks other candidates above it: a lever arm ranked sixth beside a 60 ms gyro
-  // latency) are refitted there, each with the latencies estimated again with it in the model.
-  // One the ladder's rules would add, still determined after its own alignment, and whose
-  // held-out errors then fall more than the shifts' (relative changes of both outputs summed) is
-  // added first, with its own shifts (Ladder::look_alike).
+  // latency) are refitted there; one whose refit lowers the held-out errors by
+  // min_relative_improvement is pursued: the latencies estimated again with it in the model. One
+  // still determined and off its bounds after its own alignment, whose held-out errors then fall
+  // more than the shifts' by min_relative_improvement (relative changes of both outputs summed),
+  // is added first, with its own shifts (Ladder::look_alike).
   bool look_alike_contest = true;
   int look_alike_contestants = 6;
   // The window's standstills (docs/two-outputs.md): every fit and score of the ladder uses them.
