@@ -348,6 +348,12 @@ def diagnose_section(page: Page, dia_dir: str) -> None:
         page.add("<h3>Verdicts</h3>\n<ul>" + "".join(
             f"<li{red if v.get('unexplained') else ''}>{esc(v.get('text', ''))}</li>" for v in verdicts) +
             (f"<li{red}>{esc(unsettled)}</li>" if unsettled else "") + "</ul>\n")
+    outside = d.get("outside_library", [])
+    if outside:
+        page.add("<h3>Outside the library</h3>\n<ul>" + "".join(
+            f"<li>{esc(o.get('text', ''))}" +
+            (f"<pre>{esc(o['formula_template'])}</pre>" if o.get("formula_template") else "") + "</li>"
+            for o in outside) + "</ul>\n")
 
 
 def truth_section(page: Page, truth: dict, est: dict | None) -> None:

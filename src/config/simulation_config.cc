@@ -43,6 +43,13 @@ const std::vector<EffectInfo>& EffectTable() {
        "rear cornering stiffness rising with speed (aerodynamic downforce; outside the model library): "
        "ch(v) = ch (1 + k (v / 30 m/s)^2), k here",
        "0..30", &SimEffects::rear_stiffness_speed_pct},
+      {"steer_deadband_deg", "deg",
+       "on-centre free play of the steering (outside the model library): the road wheels follow "
+       "d_sw - clip(d_sw, -b, b), b at the steering wheel",
+       "0.5..3", &SimEffects::steer_deadband_deg},
+      {"steer_asymmetry_pct", "%",
+       "steering unequal left and right (outside the model library): the road wheels follow d_sw (1 + k sgn d_sw)",
+       "+-5", &SimEffects::steer_asymmetry_pct},
       {"relaxation_length_m", "m", "tyre relaxation: slip angle lags with tau = sigma/v", "0.3..1",
        &SimEffects::relaxation_length_m},
       {"steer_delay_ms", "ms", "steering message carries d_sw from dt earlier than the accelerometer", "20..150",
@@ -372,6 +379,8 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   require(e.relaxation_length_m >= 0.0 && e.relaxation_length_m <= 5.0, "effects.relaxation_length_m in [0, 5] m");
   require(e.rear_stiffness_speed_pct >= -50.0 && e.rear_stiffness_speed_pct <= 200.0,
           "effects.rear_stiffness_speed_pct in [-50, 200] %");
+  require(e.steer_deadband_deg >= 0.0 && e.steer_deadband_deg <= 30.0, "effects.steer_deadband_deg in [0, 30] deg");
+  require(e.steer_asymmetry_pct >= -30.0 && e.steer_asymmetry_pct <= 30.0, "effects.steer_asymmetry_pct in [-30, 30] %");
   require(e.steer_delay_ms >= 0.0 && e.steer_delay_ms <= 1000.0, "effects.steer_delay_ms in [0, 1000] ms");
   require(e.roll_frequency_hz > 0.2 && e.roll_frequency_hz < 10.0, "effects.roll_frequency_hz in (0.2, 10) Hz");
   require(e.roll_damping_ratio > 0.05 && e.roll_damping_ratio < 3.0, "effects.roll_damping_ratio in (0.05, 3)");

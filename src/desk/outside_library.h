@@ -20,7 +20,9 @@ struct OutsideLibrary {
 };
 
 // One entry per output the ladder left unexplained (ladder.verdicts), judged on the final model
-// `final_effects` with the final rung's fit, over the window of `data`.
+// `final_effects` with the final rung's fit, over the window of `data`: a shape in the steering
+// (an offset odd or even in it) when the final model's residual signatures name one ahead of
+// every gain, else the signed view's gain per speed band.
 std::vector<OutsideLibrary> JudgeOutsideLibrary(const ReplayedData& data, const discover::Ladder& ladder,
                                                 const std::vector<std::string>& final_effects);
 

@@ -8,6 +8,7 @@ namespace ndsid::discover {
 namespace {
 
 struct Signature {
+  const char* key;  // SignatureCorrelation::key
   const char* name;
   double (*value)(const stats::SegmentSample* s, size_t k, size_t n, double dt, double w);
 };
@@ -18,20 +19,27 @@ double SteerRate(const stats::SegmentSample* s, size_t k, size_t n, double dt) {
 }
 
 const Signature kSignatures[] = {
-    {"constant (bias)", [](const stats::SegmentSample*, size_t, size_t, double, double) { return 1.0; }},
-    {"a_y (scale, roll)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) { return double(s[k].lat_accel_mps2); }},
-    {"a_y^3 (tyre nonlinearity)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) {
+    {"bias", "constant (bias)", [](const stats::SegmentSample*, size_t, size_t, double, double) { return 1.0; }},
+    {"a_y", "a_y (scale, roll)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) { return double(s[k].lat_accel_mps2); }},
+    {"a_y3", "a_y^3 (tyre nonlinearity)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) {
        const double a = s[k].lat_accel_mps2;
        return a * a * a;
      }},
-    {"w(v) = v^2/(l+EG v^2) (straight-line offset)", [](const stats::SegmentSample*, size_t, size_t, double, double w) { return w; }},
-    {"w(v)*a_y (EG error)", [](const stats::SegmentSample* s, size_t k, size_t, double, double w) { return w * s[k].lat_accel_mps2; }},
-    {"steering rate (lag)", [](const stats::SegmentSample* s, size_t k, size_t n, double dt, double) { return SteerRate(s, k, n, dt); }},
-    {"steering rate / v (low-speed lag)", [](const stats::SegmentSample* s, size_t k, size_t n, double dt, double) {
+    {"w", "w(v) = v^2/(l+EG v^2) (straight-line offset)", [](const stats::SegmentSample*, size_t, size_t, double, double w) { return w; }},
+    {"w_a_y", "w(v)*a_y (EG error)", [](const stats::SegmentSample* s, size_t k, size_t, double, double w) { return w * s[k].lat_accel_mps2; }},
+    {"steer_odd", "w(v)*sgn(steering) (offset odd in the steering: on-centre play)",
+     [](const stats::SegmentSample* s, size_t k, size_t, double, double w) {
+       const double d = s[k].steer_rad;
+       return d > 0 ? w : d < 0 ? -w : 0.0;
+     }},
+    {"steer_even", "w(v)*|steering| (offset even in the steering: unequal left and right)",
+     [](const stats::SegmentSample* s, size_t k, size_t, double, double w) { return w * std::fabs(double(s[k].steer_rad)); }},
+    {"steer_rate", "steering rate (lag)", [](const stats::SegmentSample* s, size_t k, size_t n, double dt, double) { return SteerRate(s, k, n, dt); }},
+    {"steer_rate_v", "steering rate / v (low-speed lag)", [](const stats::SegmentSample* s, size_t k, size_t n, double dt, double) {
        return SteerRate(s, k, n, dt) / std::max(1.0, double(s[k].speed_mps));
      }},
-    {"a_x (longitudinal)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) { return double(s[k].long_accel_mps2); }},
-    {"a_x*a_y (load transfer)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) {
+    {"a_x", "a_x (longitudinal)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) { return double(s[k].long_accel_mps2); }},
+    {"a_x_a_y", "a_x*a_y (load transfer)", [](const stats::SegmentSample* s, size_t k, size_t, double, double) {
        return double(s[k].long_accel_mps2) * s[k].lat_accel_mps2;
      }},
 };
@@ -70,6 +78,7 @@ std::vector<SignatureCorrelation> SignatureSums::Correlations() const {
   const double mean_e = n_sig > 0 ? sum_e_ / n_sig : 0.0;
   for (int s = 0; s < kNumSignatures; ++s) {
     SignatureCorrelation sc;
+    sc.key = kSignatures[s].key;
     sc.signal = kSignatures[s].name;
     const double mean_x = n_sig > 0 ? sums_(s, 0) / n_sig : 0.0;
     const double sxx = sums_(s, 1) - n_sig * mean_x * mean_x;

@@ -32,13 +32,21 @@ double VehicleTruth::BlendWeight(double speed_mps) const {
   return x * x * (3.0 - 2.0 * x);
 }
 
+double VehicleTruth::Linkage(double steer_sw_rad) const {
+  // Two steering properties outside the model library: on-centre free play (the road wheels
+  // follow d_sw - clip(d_sw, -b, b)) and a steering unequal left and right (d_sw (1 + k sgn d_sw)).
+  const double b = fx_.steer_deadband_deg * M_PI / 180.0;
+  const double d = steer_sw_rad - std::clamp(steer_sw_rad, -b, b);
+  return d * (1.0 + 0.01 * fx_.steer_asymmetry_pct * (d > 0 ? 1.0 : d < 0 ? -1.0 : 0.0));
+}
+
 double VehicleTruth::KinematicYawRate(double steer_sw_rad, double v) const {
-  return v * (steer_sw_rad / p_.is) / (l_ + eg_ * v * v);
+  return v * (Linkage(steer_sw_rad) / p_.is) / (l_ + eg_ * v * v);
 }
 
 double VehicleTruth::KinematicSideSlip(double steer_sw_rad, double v) const {
   // Steady state of the linear model: beta = (r/v) (lh - m v^2 lv / (l ch)); finite at v = 0.
-  const double r_over_v = (steer_sw_rad / p_.is) / (l_ + eg_ * v * v);
+  const double r_over_v = (Linkage(steer_sw_rad) / p_.is) / (l_ + eg_ * v * v);
   return r_over_v * ((l_ - p_.lv) - p_.m * v * v * p_.lv / (l_ * p_.ch));
 }
 
@@ -47,7 +55,7 @@ TruthState VehicleTruth::Derivative(const TruthState& x, const TruthInputs& u, T
   // output is blended with the kinematic model, so the floor never shows in the truth.
   const double v_d = std::max(std::fabs(u.speed_mps), v_lo_);
   const model::State<double> xs{x.beta, x.r};
-  const model::AxleSlip<double> slip = model::SlipAngles(p_, l_, xs, u.steer_sw_rad, v_d);
+  const model::AxleSlip<double> slip = model::SlipAngles(p_, l_, xs, Linkage(u.steer_sw_rad), v_d);
   TruthState dx{};
   double a_f = slip.front, a_r = slip.rear;
   if (fx_.relaxation_length_m > 0.0) {  // alpha_l' = (alpha - alpha_l) v / sigma

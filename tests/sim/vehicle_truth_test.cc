@@ -175,5 +175,34 @@ TEST(VehicleTruth, RollModeSettlesAtGradientTimesLateralAccel) {
   EXPECT_GT(o.roll, 0.0);  // left turn: body rolls right side down = + (ISO)
 }
 
+TEST(VehicleTruth, SteeringPlayAndUnequalSidesActOnTheRoadWheels) {
+  // Catches on-centre play or a left/right asymmetry applied with the wrong sign, at the wrong
+  // place (the measured steering instead of the road wheels), or only in one of the blended models.
+  const auto cfg = Cmax();
+  const auto p = BaseParams(cfg.vehicle);
+  const double l = cfg.vehicle.wheelbase_m;
+  const VehicleTruth plain(p, l, cfg.effects, cfg.integration);
+  config::SimEffects play_fx = cfg.effects, unequal_fx = cfg.effects;
+  play_fx.steer_deadband_deg = 2.0;
+  unequal_fx.steer_asymmetry_pct = -4.0;
+  const VehicleTruth play(p, l, play_fx, cfg.integration), unequal(p, l, unequal_fx, cfg.integration);
+  const double b = 2.0 * M_PI / 180.0;
+  EXPECT_DOUBLE_EQ(play.Linkage(0.01), 0.0);  // inside the play: the wheels stay straight
+  EXPECT_DOUBLE_EQ(play.Linkage(-0.3), -0.3 + b);
+  EXPECT_DOUBLE_EQ(unequal.Linkage(0.3), 0.3 * 0.96);
+  EXPECT_DOUBLE_EQ(unequal.Linkage(-0.3), -0.3 * 1.04);
+  for (double v : {2.0, 25.0}) {  // the kinematic model at walking pace, the dynamic one at speed
+    for (double steer : {0.4, -0.4}) {
+      TruthState x0, x1, x2, x3;
+      const double with_play = SettleAt(play, x0, {steer, v, 0.0}).a_y;
+      const double without = SettleAt(plain, x1, {steer - std::copysign(b, steer), v, 0.0}).a_y;
+      EXPECT_NEAR(with_play, without, 1e-9 + 1e-7 * std::fabs(without)) << v << " m/s, " << steer;
+      const double with_unequal = SettleAt(unequal, x2, {steer, v, 0.0}).a_y;
+      const double scaled = SettleAt(plain, x3, {steer * (steer > 0 ? 0.96 : 1.04), v, 0.0}).a_y;
+      EXPECT_NEAR(with_unequal, scaled, 1e-9 + 1e-7 * std::fabs(scaled)) << v << " m/s, " << steer;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ndsid::sim

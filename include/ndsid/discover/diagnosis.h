@@ -35,6 +35,9 @@ struct CandidateScore {
 };
 
 struct SignatureCorrelation {
+  // Its short name: "bias", "a_y", "a_y3", "w", "w_a_y", "steer_odd" (w(v) sgn(d_sw): an offset odd
+  // in the steering), "steer_even" (w(v) |d_sw|), "steer_rate", "steer_rate_v", "a_x", "a_x_a_y".
+  std::string key;
   std::string signal;  // e.g. "a_y^3", "steering rate"
   double correlation = 0;
   double z_robust = 0;

@@ -48,6 +48,9 @@ class VehicleTruth {
   TruthState Derivative(const TruthState& x, const TruthInputs& u, TruthOutputs* out) const;
   TruthOutputs Outputs(const TruthState& x, const TruthInputs& u) const;
 
+  // The steering-wheel angle the road wheels follow (steer_deadband_deg, steer_asymmetry_pct;
+  // d_sw itself without them). Every use of the steering below goes through it.
+  double Linkage(double steer_sw_rad) const;
   // Kinematic limit (steady state of the linear model): r = v*delta/(l + EG v^2).
   double KinematicYawRate(double steer_sw_rad, double speed_mps) const;
   double KinematicSideSlip(double steer_sw_rad, double speed_mps) const;

@@ -180,7 +180,7 @@ void ReportRanking(const discover::Diagnosis& d, DiagnoseReport& r) {
     const double share = rss > 0 ? 100.0 * s.drss / rss : 0.0;
     std::printf("  %-48s r = %+.3f  z = %+6.1f  dRSS %5.2f %%\n", s.signal.c_str(), s.correlation, s.z_robust, share);
     r.md += "| " + s.signal + " | " + Fmt("%+.3f", s.correlation) + " | " + Fmt("%+.1f", s.z_robust) + " | " + Fmt("%.2f %%", share) + " |\n";
-    r.j["signatures"].push_back({{"signal", s.signal}, {"correlation", s.correlation}, {"z_robust", s.z_robust}, {"drss_share", share / 100.0}});
+    r.j["signatures"].push_back({{"key", s.key}, {"signal", s.signal}, {"correlation", s.correlation}, {"z_robust", s.z_robust}, {"drss_share", share / 100.0}});
   }
   r.j["unexplained"] = d.unexplained;
   r.j["unexplained_text"] = d.unexplained_text;
