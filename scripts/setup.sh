@@ -9,6 +9,9 @@
 #                               downloads on its first run), configures build-arm64/ with
 #                               cmake/toolchain-arm64.cmake and builds ndsid, ndsidd and the
 #                               tests labelled arm64 (no venv, no Python module, no benchmarks)
+#   scripts/setup.sh --arch arm64 --unit-tests
+#                               the same, but builds only the arm64 unit tests (target
+#                               ndsid_arm64_unit_tests, label arm64; what scripts/test.sh runs)
 #   NDSID_BUILD_DIR=dir         build somewhere else
 #   NDSID_SKIP_INSTALL=1        only configure + build (no apt, no pip)
 set -euo pipefail
@@ -41,6 +44,12 @@ arch=amd64
 if [[ "${1:-}" == "--arch" ]]; then
   arch="${2:?--arch needs amd64 or arm64}"
   shift 2
+fi
+arm64_targets=(ndsid ndsidd ndsid_arm64_tests)
+if [[ "${1:-}" == "--unit-tests" ]]; then
+  [[ "$arch" == arm64 ]] || { echo "setup.sh: --unit-tests goes with --arch arm64" >&2; exit 2; }
+  arm64_targets=(ndsid_arm64_unit_tests)
+  shift
 fi
 case "$arch" in
   amd64) ;;
@@ -113,7 +122,7 @@ build_arm64() {
     cmake -S "$here" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
       -DCMAKE_TOOLCHAIN_FILE="$here/cmake/toolchain-arm64.cmake" -DNDSID_BUILD_BENCH=OFF "${launcher[@]}" >&2
   fi
-  nice -n 10 cmake --build "$dir" -j "${NDSID_JOBS:-2}" --target ndsid ndsidd ndsid_arm64_tests >&2
+  nice -n 10 cmake --build "$dir" -j "${NDSID_JOBS:-2}" --target "${arm64_targets[@]}" >&2
 }
 
 if [[ "${NDSID_SKIP_INSTALL:-0}" != 1 ]]; then
