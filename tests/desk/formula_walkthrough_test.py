@@ -23,8 +23,9 @@ import json
 import os
 import re
 import shutil
-import subprocess
 import sys
+
+import desk_cli
 
 exe, src, out = sys.argv[1], os.path.abspath(sys.argv[2]), os.path.abspath(sys.argv[3])
 config = os.path.join(src, "config", "example_vehicle.yaml")
@@ -43,23 +44,13 @@ errors = []
 
 
 def run(args):
-    r = subprocess.run([exe] + args, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"{' '.join(args[:2])}: exit {r.returncode}\n{r.stdout[-2000:]}{r.stderr[-2000:]}")
-    return r.stdout
+    return desk_cli.run(exe, args)
 
 
 def formula_config():
     """The example config with the formula added to its model (paths made absolute)."""
-    with open(config) as f:
-        text = f.read()
-    text = text.replace("dbc: ../dbc/", "dbc: " + os.path.join(src, "dbc") + "/")
-    text = re.sub(r"^state_dir: .*$", "state_dir: " + os.path.join(out, "state"), text, flags=re.M)
-    text = re.sub(r"^report_dir: .*$", "report_dir: " + os.path.join(out, "report"), text, flags=re.M)
-    text, n = re.subn(r"^  effects: \[road_bank, gyro_offset\].*$",
-                      lambda m: "  effects: [road_bank, gyro_offset, rear_stiffer_with_speed]" + FORMULA.rstrip("\n"),
-                      text, flags=re.M)
-    assert n == 1, "the example config's model.effects line changed"
+    text = desk_cli.with_model(desk_cli.example_config(src, out), ["road_bank", "gyro_offset", "rear_stiffer_with_speed"],
+                               FORMULA.lstrip("\n"))
     path = os.path.join(out, "with_formula.yaml")
     with open(path, "w") as f:
         f.write(text)
@@ -67,12 +58,7 @@ def formula_config():
 
 
 def compare(cfg, log, d):
-    run(["compare", "--config", cfg, "--log", log, "--out", d])
-    with open(os.path.join(d, "summary.json")) as f:
-        s = json.load(f)
-    m = next(x for x in s["models"] if x["label"] == "model")
-    r = next(x for x in s["yaw_rate"]["models"] if x["label"] == "model")
-    return m, r["rmse_validation_degps"]
+    return desk_cli.compare(exe, cfg, log, d)
 
 
 def replay(cfg, log, d):

@@ -14,8 +14,9 @@ Usage: gain_view_test.py NDSID_EXE SOURCE_DIR OUT_DIR"""
 import json
 import os
 import shutil
-import subprocess
 import sys
+
+import desk_cli
 
 exe, src, out = sys.argv[1], sys.argv[2], sys.argv[3]
 config = os.path.join(src, "config", "example_vehicle.yaml")
@@ -27,10 +28,7 @@ errors = []
 
 
 def run(args):
-    r = subprocess.run([exe] + args, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"{' '.join(args[:2])}: exit {r.returncode}\n{r.stdout[-2000:]}{r.stderr[-2000:]}")
-    return r.stdout
+    return desk_cli.run(exe, args)
 
 
 def view(case, seed, effect):

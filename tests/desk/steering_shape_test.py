@@ -25,13 +25,13 @@ import math
 import os
 import re
 import shutil
-import subprocess
 import sys
 
 import yaml
 
+import desk_cli
+
 exe, src, out = sys.argv[1], os.path.abspath(sys.argv[2]), os.path.abspath(sys.argv[3])
-config = os.path.join(src, "config", "example_vehicle.yaml")
 HOURS = "0.6"
 # (seed, the simulator's effects, the signature expected, the formula parameter and its truth)
 CASES = (
@@ -47,27 +47,14 @@ errors = []
 
 
 def run(args):
-    r = subprocess.run([exe] + args, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"{' '.join(args[:2])}: exit {r.returncode}\n{r.stdout[-2000:]}{r.stderr[-2000:]}")
-    return r.stdout
+    return desk_cli.run(exe, args)
 
 
-def base_config(d):
-    """The example config (paths made absolute, state and reports in d)."""
-    with open(config) as f:
-        text = f.read()
-    text = text.replace("dbc: ../dbc/", "dbc: " + os.path.join(src, "dbc") + "/")
-    text = re.sub(r"^state_dir: .*$", "state_dir: " + os.path.join(d, "state"), text, flags=re.M)
-    return re.sub(r"^report_dir: .*$", "report_dir: " + os.path.join(d, "report"), text, flags=re.M)
-
-
-def with_template(d, effects, template, name):
-    """The config with `effects` and the template's formula, pasted as printed, as `name`."""
-    body = "".join(line + "\n" for line in template.splitlines()[1:])  # "  formulas:\n    name: ..."
-    text, n = re.subn(r"^  effects: \[.*$", lambda m: "  effects: [" + ", ".join(effects) + "]\n" + body.rstrip("\n"),
-                      base_config(d), flags=re.M)
-    assert n == 1, "the example config's model.effects line changed"
+def write_config(d, name, effects=None, template=""):
+    """The example config in d; with `effects` and the template's formula pasted as printed."""
+    text = desk_cli.example_config(src, d)
+    if effects is not None:
+        text = desk_cli.with_model(text, effects, "".join(line + "\n" for line in template.splitlines()[1:]))
     path = os.path.join(d, name)
     with open(path, "w") as f:
         f.write(text)
@@ -75,20 +62,14 @@ def with_template(d, effects, template, name):
 
 
 def compare(cfg, log, d):
-    run(["compare", "--config", cfg, "--log", log, "--out", d])
-    with open(os.path.join(d, "summary.json")) as f:
-        s = json.load(f)
-    m = next(x for x in s["models"] if x["label"] == "model")
-    r = next(x for x in s["yaw_rate"]["models"] if x["label"] == "model")
-    return m["rmse_validation_mps2"], r["rmse_validation_degps"]
+    m, yaw = desk_cli.compare(exe, cfg, log, d)
+    return m["rmse_validation_mps2"], yaw
 
 
 for seed, effects, shape, param, truth in CASES:
     d = os.path.join(out, f"s{seed}")
     os.makedirs(d)
-    cfg = os.path.join(d, "example.yaml")
-    with open(cfg, "w") as f:
-        f.write(base_config(d))
+    cfg = write_config(d, "example.yaml")
     run(["simulate", "--hours", HOURS, "--seed", str(seed), "--out", d] + sum((["--effect", e] for e in effects), []))
     twin = os.path.join(d, "twin")
     run(["simulate", "--hours", HOURS, "--seed", str(seed), "--out", twin])
@@ -112,7 +93,7 @@ for seed, effects, shape, param, truth in CASES:
         errors.append(f"seed {seed}: the HTML report does not show the verdict outside the library with its template")
     formula = next(iter(yaml.safe_load(template)["model"]["formulas"]))
     start = diag["start_effects"]
-    hyp_cfg = with_template(d, start + [formula], template, "hypothesis.yaml")
+    hyp_cfg = write_config(d, "hypothesis.yaml", start + [formula], template)
     run(["diagnose", "--config", hyp_cfg, "--log", log, "--effects", ",".join(start), "--candidates", "+" + formula,
          "--out", os.path.join(d, "diag_hypothesis")])
     with open(os.path.join(d, "diag_hypothesis", "diagnosis.json")) as f:
@@ -121,7 +102,7 @@ for seed, effects, shape, param, truth in CASES:
     if formula not in final:
         errors.append(f"seed {seed}: the template's formula was not added as a hypothesis: {final}")
         continue
-    fixed = with_template(d, final, template, "fixed.yaml")
+    fixed = write_config(d, "fixed.yaml", final, template)
     floor, floor_r = compare(cfg, os.path.join(twin, "drive.log"), os.path.join(twin, "cmp"))
     before, before_r = compare(cfg, log, os.path.join(d, "cmp_before"))
     after, after_r = compare(fixed, log, os.path.join(d, "cmp_after"))
