@@ -65,6 +65,10 @@ const std::vector<EffectInfo>& EffectTable() {
        &SimEffects::gyro_offset_drive_degps},
       {"gyro_scale_pct", "%", "yaw-rate sensor scale error: r_meas = (1 + k_r) r", "+-3", &SimEffects::gyro_scale_pct},
       {"accel_scale_pct", "%", "accelerometer scale error: a_y,meas = (1 + k_a) a_y", "+-3", &SimEffects::accel_scale_pct},
+      {"accel_quadratic_pct", "%",
+       "accelerometer nonlinearity, even (outside the model library): a_y,meas = q + k2 q^2/g on what it senses, "
+       "k2 here (the reading's error at 1 g in % of g)",
+       "+-5", &SimEffects::accel_quadratic_pct},
       {"gyro_delay_ms", "ms", "yaw-rate sensor latency (exact delay): r_meas(t) = r(t - tau)", "10..100",
        &SimEffects::gyro_delay_ms},
       {"accel_delay_ms", "ms", "accelerometer latency (exact delay of everything it senses)", "10..100",
@@ -393,6 +397,7 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
           "effects.gyro_offset_drive_degps in [0, 10] deg/s (a +- range)");
   require(std::fabs(e.gyro_scale_pct) < 50.0, "effects.gyro_scale_pct in (-50, 50) %");
   require(std::fabs(e.accel_scale_pct) < 50.0, "effects.accel_scale_pct in (-50, 50) %");
+  require(std::fabs(e.accel_quadratic_pct) <= 30.0, "effects.accel_quadratic_pct in [-30, 30] %");
   require(std::fabs(e.rear_wheel_radius_diff_pct) <= 10.0, "effects.rear_wheel_radius_diff_pct in [-10, 10] %");
   require(std::fabs(e.wheel_radius_load_pct_per_g) <= 10.0, "effects.wheel_radius_load_pct_per_g in [-10, 10] %/g");
   require(e.gyro_delay_ms >= 0.0 && e.gyro_delay_ms <= 1000.0, "effects.gyro_delay_ms in [0, 1000] ms");

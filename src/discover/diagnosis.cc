@@ -61,6 +61,7 @@ Diagnosis Diagnose(const identify::Identifier& identifier, const std::vector<dou
   }
   RankByPredictedDrop(d, sums.rss);
   d.signatures = signatures.Correlations();
+  d.kinematic_signatures = signatures.KinematicCorrelations();
   JudgeUnexplained(d, sums.rss, options.z_threshold);
   return d;
 }

@@ -307,7 +307,7 @@ void ErrorLadder::Judge() {
   const identify::SegmentList& judged = validation_.empty() ? training_ : validation_;
   ladder_.verdicts = JudgeOutputs(current_, fit_.AllValues(), judged, fit_.yaw_rate_output, options_.unexplained_ratio,
                                   YawShiftSamples(ladder_.alignment, judged), options_.a_y_floor_factor,
-                                  options_.yaw_floor_factor);
+                                  options_.yaw_floor_factor, !validation_.empty());
   for (const OutputVerdict& v : ladder_.verdicts) spdlog::info("ladder: {}", v.text);
 }
 

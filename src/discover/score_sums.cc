@@ -64,7 +64,7 @@ ScoreSums SumChunks(const identify::Identifier& identifier, const ScoringModel& 
     s.rss += ev.squaredNorm();
     s.n += static_cast<size_t>(m);
     s.chunk_residuals.push_back(e);
-    signatures.AddChunk(c, burn, e, n_rows_a);
+    signatures.AddChunk(c, burn, e, n_rows_a, weights.stacked ? weights.a_y : 1.0);
   }
   return s;
 }

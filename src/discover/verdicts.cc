@@ -28,7 +28,7 @@ struct ResidualSums {
 // The verdict on one output; g: the floor's correction for a read between samples (1: none);
 // slow: its factor for a role slower than the fit (1: none).
 OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, double to_unit, double ratio_limit, double g,
-                    double slow) {
+                    double slow, const char* which) {
   OutputVerdict v;
   v.output = name;
   v.unit = unit;
@@ -40,13 +40,13 @@ OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, d
   char buf[400];
   if (v.unexplained) {
     std::snprintf(buf, sizeof buf,
-                  "%s unexplained: held-out RMSE %.4g %s is %.2fx its noise floor %.4g %s (white part of the residual, "
+                  "%s unexplained: %s RMSE %.4g %s is %.2fx its noise floor %.4g %s (white part of the residual, "
                   "limit %.2fx): structure is left that no effect of the model explains (an effect outside the "
                   "library, or a sensor whose noise is not white, e.g. filtered)",
-                  name, v.rmse, unit, v.ratio, v.floor, unit, ratio_limit);
+                  name, which, v.rmse, unit, v.ratio, v.floor, unit, ratio_limit);
   } else {
-    std::snprintf(buf, sizeof buf, "%s explained: held-out RMSE %.4g %s is %.2fx its noise floor %.4g %s (limit %.2fx)",
-                  name, v.rmse, unit, v.ratio, v.floor, unit, ratio_limit);
+    std::snprintf(buf, sizeof buf, "%s explained: %s RMSE %.4g %s is %.2fx its noise floor %.4g %s (limit %.2fx)",
+                  name, which, v.rmse, unit, v.ratio, v.floor, unit, ratio_limit);
   }
   v.text = buf;
   if (slow > 1) v.text += Fmt(" (its floor x %.2f: its values come %.2f fit samples apart)", slow, slow);
@@ -57,7 +57,9 @@ OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, d
 
 std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, const std::vector<double>& params,
                                         const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit,
-                                        double yaw_shift_samples, double a_y_floor_factor, double yaw_floor_factor) {
+                                        double yaw_shift_samples, double a_y_floor_factor, double yaw_floor_factor,
+                                        bool held_out) {
+  const char* which = held_out ? "held-out" : "training (no drive held out)";
   ResidualSums a, r;
   for (const identify::ChunkOutput& c : identify::SimulateChunks(identifier, params, segments)) {
     std::vector<double> ea, er;
@@ -81,8 +83,8 @@ std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, 
   // floor uncorrected.
   const double w = yaw_shift_samples - std::floor(yaw_shift_samples);
   const double g_yaw = ((1 - w) * (1 - w) + (1 - 2 * w) * (1 - 2 * w) + w * w) / 2;
-  if (a.nd > 0) out.push_back(Judge(a, "a_y", "m/s^2", 1.0, ratio_limit, 1.0, a_y_floor_factor));
-  if (r.nd > 0) out.push_back(Judge(r, "yaw rate", "deg/s", 180.0 / M_PI, ratio_limit, g_yaw, yaw_floor_factor));
+  if (a.nd > 0) out.push_back(Judge(a, "a_y", "m/s^2", 1.0, ratio_limit, 1.0, a_y_floor_factor, which));
+  if (r.nd > 0) out.push_back(Judge(r, "yaw rate", "deg/s", 180.0 / M_PI, ratio_limit, g_yaw, yaw_floor_factor, which));
   return out;
 }
 

@@ -124,8 +124,9 @@ void SensorModel::Record(const SampleTruth& st, uint8_t gear, DriveSeries& out) 
   // Accelerometer: a_y,meas = a_y + g*phi + x_s*r' + b + disturbance + noise.
   // Accelerometer scale (1 + k_a) on the CG acceleration (as the model's accel_scale).
   // Latency: the sensed acceleration reaches the bus accel_delay_ms later (an exact delay).
-  const double sensed_a_y = Delayed(sensed_a_y_, (1.0 + fx.accel_scale_pct / 100.0) * st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot,
-                                    fx.accel_delay_ms / 1000.0);
+  // Nonlinearity (even, second order) on everything the element senses: q + k2 q^2/g.
+  const double q = (1.0 + fx.accel_scale_pct / 100.0) * st.a_y + g * st.roll + fx.lever_arm_m * st.r_dot;
+  const double sensed_a_y = Delayed(sensed_a_y_, q + fx.accel_quadratic_pct / 100.0 * q * q / g, fx.accel_delay_ms / 1000.0);
   // Vibration while moving (a raw IMU on a stiff mount), rising to its RMS by 5 m/s.
   const double shaking = std::min(1.0, speed_abs / 5.0);
   const double vib_a = fx.accel_vibration_mps2 > 0 ? fx.accel_vibration_mps2 * shaking * Vibration(accel_tones_, st.t) : 0.0;

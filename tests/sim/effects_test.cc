@@ -58,6 +58,23 @@ TEST(Effects, AccelScaleMultipliesTheCgAcceleration) {
   }
 }
 
+TEST(Effects, AccelQuadraticBendsTheReadingTheSameWayInBothTurns) {
+  // Catches a nonlinearity that is odd (a scale) instead of even, applied to the truth, or in the
+  // wrong unit: a_y,meas,on - a_y,meas,off = k2 a_y^2 / g (-4 %), the same sign left and right.
+  const auto p = RunPair([](config::SimEffects& e) { e.accel_quadratic_pct = -4.0; });
+  ExpectSameTruth(p);
+  double largest = 0;
+  for (size_t d = 0; d < p.on.drives.size(); ++d) {
+    const auto &a = p.off.drives[d].series, &b = p.on.drives[d].series;
+    for (size_t i = 0; i < a.size(); ++i) {
+      const double ay = a.a_y_mps2[i];
+      ASSERT_NEAR(b.a_y_meas_mps2[i] - a.a_y_meas_mps2[i], -0.04 * ay * ay / kG, 1e-12);
+      largest = std::max(largest, std::fabs(ay));
+    }
+  }
+  EXPECT_GT(largest, 2.0);  // the drives turn hard enough for the term to show
+}
+
 TEST(Effects, GyroOffsetAndScaleFollowTheirEquationEverywhere) {
   // Catches a gyro error applied to the truth, only while moving, or with the wrong unit:
   // r_meas,on - r_meas,off = k_r r + r0 (0.4 deg/s, 2 %), also at standstill.

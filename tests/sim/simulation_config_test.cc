@@ -46,6 +46,8 @@ TEST(SimulationConfig, UnknownKeyIsRejectedWithLine) {
   EXPECT_THROW(ParseSimulationConfig("effects:\n  steer_deadband_deg: -1\n", "x.yaml"), ConfigError);
   EXPECT_THROW(ParseSimulationConfig("effects:\n  steer_asymmetry_pct: 40\n", "x.yaml"), ConfigError);
   EXPECT_EQ(ParseSimulationConfig("effects:\n  steer_asymmetry_pct: -4\n", "x.yaml").effects.steer_asymmetry_pct, -4.0);
+  EXPECT_THROW(ParseSimulationConfig("effects:\n  accel_quadratic_pct: 31\n", "x.yaml"), ConfigError);
+  EXPECT_EQ(ParseSimulationConfig("effects:\n  accel_quadratic_pct: -3\n", "x.yaml").effects.accel_quadratic_pct, -3.0);
   const auto c = ParseSimulationConfig("effects:\n  steer_offset_deg: 1.5\n  mass_schedule_kg: [0, 150]\n", "x.yaml");
   EXPECT_EQ(c.effects.steer_offset_deg, 1.5);
   EXPECT_EQ(c.effects.mass_schedule_kg.size(), 2u);

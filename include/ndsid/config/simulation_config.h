@@ -34,6 +34,7 @@ struct SimEffects {
   double gyro_offset_drive_degps = 0.0;  // per drive: r0_i = r0 + U(-d, +d) (re-zeroed at every ignition)
   double gyro_scale_pct = 0.0;           // k_r * 100
   double accel_scale_pct = 0.0;          // accelerometer: a_y,meas = (1 + k_a) a_y + ..., k_a * 100
+  double accel_quadratic_pct = 0.0;      // accelerometer nonlinearity: a_y,meas = q + k2 q^2/g, k2 * 100 (not in the model library)
   double gyro_delay_ms = 0.0;            // yaw-rate sensor latency: r_meas(t) = r(t - tau)
   double accel_delay_ms = 0.0;           // accelerometer latency: a_y,meas(t) = a_y,sensed(t - tau)
   double mass_change_kg = 0.0;           // per drive: m_i = m + U(-dm, +dm) (Jz scaled with m_i/m)

@@ -36,12 +36,19 @@ struct CandidateScore {
 
 struct SignatureCorrelation {
   // Its short name: "bias", "a_y", "a_y3", "w", "w_a_y", "steer_odd" (w(v) sgn(d_sw): an offset odd
-  // in the steering), "steer_even" (w(v) |d_sw|), "steer_rate", "steer_rate_v", "a_x", "a_x_a_y".
+  // in the steering), "steer_even" (w(v) |d_sw|), "a_y2" (a_y^2: an accelerometer bent evenly),
+  // "steer_rate", "steer_rate_v", "a_x", "a_x_a_y".
   std::string key;
   std::string signal;  // e.g. "a_y^3", "steering rate"
   double correlation = 0;
   double z_robust = 0;
   double drss = 0;     // drop if the residual were regressed on this signal alone
+  // The even shapes ("a_y2", "steer_even"; 0 for the others): the residual's slope on the signal
+  // with a constant, a_y, a_y^3 and w(v) sgn(d_sw) beside it, its part that nothing odd in the turn
+  // takes (left and right turns are not driven alike, so an odd error leaks into an even signal's
+  // correlation); and its standard error, clustered by chunk.
+  double slope = 0;
+  double slope_se = 0;
 };
 
 struct Diagnosis {
@@ -54,6 +61,9 @@ struct Diagnosis {
   double rss = 0;
   std::vector<CandidateScore> ranked;  // by drss, largest first
   std::vector<SignatureCorrelation> signatures;  // by drss
+  // The same signals against a_y,meas - v r_meas (with a yaw rate; else empty), by drss: an a_y
+  // shape found there too is the accelerometer's, one absent there the car's.
+  std::vector<SignatureCorrelation> kinematic_signatures;
   bool unexplained = false;            // structure left that no candidate explains
   std::string unexplained_text;
   // Standstill evidence scored with the candidates (accel_bias, gyro_offset): the stops' mean.
@@ -165,7 +175,7 @@ struct LadderOptions {
 struct OutputVerdict {
   std::string output;  // "a_y" or "yaw rate"
   std::string unit;    // of the numbers below: "m/s^2" or "deg/s"
-  double rmse = 0;     // held-out (training when nothing is held out)
+  double rmse = 0;     // held-out (training when nothing is held out; the text says which)
   double floor = 0;
   double ratio = 0;    // rmse / floor
   size_t residuals = 0;
@@ -182,7 +192,7 @@ struct OutputVerdict {
 std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, const std::vector<double>& params,
                                         const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit,
                                         double yaw_shift_samples = 0, double a_y_floor_factor = 1.0,
-                                        double yaw_floor_factor = 1.0);
+                                        double yaw_floor_factor = 1.0, bool held_out = true);
 
 // One candidate refitted by the ladder: what it did to the held-out error, and why it was kept
 // or rejected (the stop message's "no candidate improved" lists these).

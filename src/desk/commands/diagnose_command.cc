@@ -3,6 +3,7 @@
 // score test (discover::Diagnose), then adds effects one at a time while the held-out RMSE falls
 // (discover::ClimbErrorLadder). --apply writes the ladder's effect list (model: effects: [...])
 // and the applied latencies (signals.<role>.latency_s) into the configuration.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -22,6 +23,7 @@
 namespace ndsid::desk {
 namespace {
 namespace fs = std::filesystem;
+
 
 struct DiagnoseArgs {
   std::string config = std::string(NDSID_SOURCE_DIR) + "/config/example_vehicle.yaml";
@@ -71,6 +73,9 @@ std::string Fmt(const char* fmt, double a, double b = 0, double c = 0) {
   std::snprintf(buf, sizeof buf, fmt, a, b, c);
   return buf;
 }
+
+// A held-out RMSE, or "—" when no drive was held out (the fit's value is then negative).
+std::string HeldOut(double rmse) { return rmse >= 0 ? Fmt("%.4f", rmse) : std::string("—"); }
 
 // The added effect's parameters of a rung as "name = v ± se unit".
 std::string AddedParams(const discover::Rung& r, const model::EffectLibrary& library) {
@@ -133,10 +138,11 @@ std::map<config::Role, double> ReportAlignment(const discover::Ladder& ladder, c
   if (ladder.aligned) {
     const auto& b = ladder.before_alignment;
     const auto& f = ladder.rungs.at(static_cast<size_t>(ladder.aligned_rung)).fit;
-    std::printf("  aligned: RMSE train %.4f -> %.4f, held-out %.4f -> %.4f, EG %.3f -> %.3f deg/g\n", b.rmse_train_mps2,
-                f.rmse_train_mps2, b.rmse_validation_mps2, f.rmse_validation_mps2, b.eg_deg_per_g, f.eg_deg_per_g);
+    std::printf("  aligned: RMSE train %.4f -> %.4f, held-out %s -> %s, EG %.3f -> %.3f deg/g\n", b.rmse_train_mps2,
+                f.rmse_train_mps2, HeldOut(b.rmse_validation_mps2).c_str(), HeldOut(f.rmse_validation_mps2).c_str(),
+                b.eg_deg_per_g, f.eg_deg_per_g);
     r.md += "\nAligned: RMSE train " + Fmt("%.4f → %.4f", b.rmse_train_mps2, f.rmse_train_mps2) + ", held-out " +
-            Fmt("%.4f → %.4f", b.rmse_validation_mps2, f.rmse_validation_mps2) + ", EG " +
+            HeldOut(b.rmse_validation_mps2) + " → " + HeldOut(f.rmse_validation_mps2) + ", EG " +
             Fmt("%.3f → %.3f deg/g", b.eg_deg_per_g, f.eg_deg_per_g) + ". The ladder below works on the aligned data.\n\n";
   } else if (!ladder.alignment_rejected.empty()) {
     std::printf("  not applied: %s; the ladder works on the data as recorded\n", ladder.alignment_rejected.c_str());
@@ -174,13 +180,32 @@ void ReportRanking(const discover::Diagnosis& d, DiagnoseReport& r) {
                               {"confounded_with", c.confounded_with},
                               {"separated_by", c.confounded_with.empty() ? "" : Separation(c.effect)}});
   }
-  std::printf("\nresidual correlations with the signatures:\n");
-  r.md += "\n## Residual correlations with the signatures\n\n| signal | r | robust z | ΔRSS share |\n|---|---|---|---|\n";
+  const bool kin = !d.kinematic_signatures.empty();
+  std::printf("\nresidual correlations with the signatures%s:\n", kin ? " (a_y's residual; beside it a_y - v r, measured)" : "");
+  r.md += kin ? "\n## Residual correlations with the signatures\n\n| signal | r | robust z | ΔRSS share | a_y − v·r: r | a_y − v·r: z |\n|---|---|---|---|---|---|\n"
+              : "\n## Residual correlations with the signatures\n\n| signal | r | robust z | ΔRSS share |\n|---|---|---|---|\n";
   for (const auto& s : d.signatures) {
     const double share = rss > 0 ? 100.0 * s.drss / rss : 0.0;
-    std::printf("  %-48s r = %+.3f  z = %+6.1f  dRSS %5.2f %%\n", s.signal.c_str(), s.correlation, s.z_robust, share);
-    r.md += "| " + s.signal + " | " + Fmt("%+.3f", s.correlation) + " | " + Fmt("%+.1f", s.z_robust) + " | " + Fmt("%.2f %%", share) + " |\n";
-    r.j["signatures"].push_back({{"key", s.key}, {"signal", s.signal}, {"correlation", s.correlation}, {"z_robust", s.z_robust}, {"drss_share", share / 100.0}});
+    const auto y = std::find_if(d.kinematic_signatures.begin(), d.kinematic_signatures.end(), [&](const auto& q) { return q.key == s.key; });
+    const bool has_yaw = y != d.kinematic_signatures.end();
+    std::printf("  %-48s r = %+.3f  z = %+6.1f  dRSS %5.2f %%%s\n", s.signal.c_str(), s.correlation, s.z_robust, share,
+                has_yaw ? Fmt("   a_y - v r: r = %+.3f  z = %+6.1f  slope/a_y's %+.2f", y->correlation, y->z_robust, s.slope != 0 ? y->slope / s.slope : 0.0).c_str() : "");
+    r.md += "| " + s.signal + " | " + Fmt("%+.3f", s.correlation) + " | " + Fmt("%+.1f", s.z_robust) + " | " + Fmt("%.2f %%", share) +
+            (has_yaw ? " | " + Fmt("%+.3f", y->correlation) + " | " + Fmt("%+.1f", y->z_robust) : std::string()) + " |\n";
+    nlohmann::json j = {{"key", s.key}, {"signal", s.signal}, {"correlation", s.correlation}, {"z_robust", s.z_robust}, {"drss_share", share / 100.0}};
+    if (s.slope != 0) {
+      j["slope"] = s.slope;
+      j["slope_se"] = s.slope_se;
+    }
+    if (has_yaw) {
+      if (y->slope != 0) {
+        j["kinematic_slope"] = y->slope;
+        j["kinematic_slope_se"] = y->slope_se;
+      }
+      j["kinematic_correlation"] = y->correlation;
+      j["kinematic_z_robust"] = y->z_robust;
+    }
+    r.j["signatures"].push_back(j);
   }
   r.j["unexplained"] = d.unexplained;
   r.j["unexplained_text"] = d.unexplained_text;
@@ -198,10 +223,11 @@ void ReportLadder(const discover::Ladder& ladder, const model::EffectLibrary& li
   for (size_t i = 0; i < ladder.rungs.size(); ++i) {
     const auto& rung = ladder.rungs[i];
     const std::string added = AddedParams(rung, library);
-    std::printf("%-4zu %-42s %10.4f %10.4f %9.3f ± %-6.3f %-40s %8.1f\n", i, rung.model.c_str(), rung.fit.rmse_train_mps2,
-                rung.fit.rmse_validation_mps2, rung.fit.eg_deg_per_g, rung.fit.eg_se_deg_per_g, added.c_str(), rung.delta_bic);
+    std::printf("%-4zu %-42s %10.4f %10s %9.3f ± %-6.3f %-40s %8.1f\n", i, rung.model.c_str(), rung.fit.rmse_train_mps2,
+                HeldOut(rung.fit.rmse_validation_mps2).c_str(), rung.fit.eg_deg_per_g, rung.fit.eg_se_deg_per_g, added.c_str(),
+                rung.delta_bic);
     r.md += "| " + std::to_string(i) + " | " + rung.model + " | " + Fmt("%.4f", rung.fit.rmse_train_mps2) + " | " +
-            Fmt("%.4f", rung.fit.rmse_validation_mps2) + " | " + Fmt("%.3f ± %.3f", rung.fit.eg_deg_per_g, rung.fit.eg_se_deg_per_g) +
+            HeldOut(rung.fit.rmse_validation_mps2) + " | " + Fmt("%.3f ± %.3f", rung.fit.eg_deg_per_g, rung.fit.eg_se_deg_per_g) +
             " | " + added + " | " + (i ? Fmt("%.1f", rung.delta_bic) : std::string("")) + " |\n";
     r.j["ladder"].push_back({{"model", rung.model}, {"added", rung.added}, {"valid", rung.fit.valid},
                              {"rmse_train_mps2", rung.fit.rmse_train_mps2}, {"rmse_validation_mps2", rung.fit.rmse_validation_mps2},
