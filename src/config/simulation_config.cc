@@ -45,8 +45,8 @@ const std::vector<EffectInfo>& EffectTable() {
        "0..30", &SimEffects::rear_stiffness_speed_pct},
       {"steer_deadband_deg", "deg",
        "on-centre free play of the steering (outside the model library): the road wheels follow "
-       "d_sw - clip(d_sw, -b, b), b at the steering wheel",
-       "0.5..3", &SimEffects::steer_deadband_deg},
+       "d_sw - clip(d_sw, -b, b), b at the steering wheel; negative: a lead (preload), d_sw + clip(d_sw, -|b|, |b|)",
+       "0.5..3, -2..-0.5", &SimEffects::steer_deadband_deg},
       {"steer_asymmetry_pct", "%",
        "steering unequal left and right (outside the model library): the road wheels follow d_sw (1 + k sgn d_sw)",
        "+-5", &SimEffects::steer_asymmetry_pct},
@@ -383,7 +383,7 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
   require(e.relaxation_length_m >= 0.0 && e.relaxation_length_m <= 5.0, "effects.relaxation_length_m in [0, 5] m");
   require(e.rear_stiffness_speed_pct >= -50.0 && e.rear_stiffness_speed_pct <= 200.0,
           "effects.rear_stiffness_speed_pct in [-50, 200] %");
-  require(e.steer_deadband_deg >= 0.0 && e.steer_deadband_deg <= 30.0, "effects.steer_deadband_deg in [0, 30] deg");
+  require(e.steer_deadband_deg >= -30.0 && e.steer_deadband_deg <= 30.0, "effects.steer_deadband_deg in [-30, 30] deg");
   require(e.steer_asymmetry_pct >= -30.0 && e.steer_asymmetry_pct <= 30.0, "effects.steer_asymmetry_pct in [-30, 30] %");
   require(e.steer_delay_ms >= 0.0 && e.steer_delay_ms <= 1000.0, "effects.steer_delay_ms in [0, 1000] ms");
   require(e.roll_frequency_hz > 0.2 && e.roll_frequency_hz < 10.0, "effects.roll_frequency_hz in (0.2, 10) Hz");

@@ -33,10 +33,11 @@ double VehicleTruth::BlendWeight(double speed_mps) const {
 }
 
 double VehicleTruth::Linkage(double steer_sw_rad) const {
-  // Two steering properties outside the model library: on-centre free play (the road wheels
-  // follow d_sw - clip(d_sw, -b, b)) and a steering unequal left and right (d_sw (1 + k sgn d_sw)).
-  const double b = fx_.steer_deadband_deg * M_PI / 180.0;
-  const double d = steer_sw_rad - std::clamp(steer_sw_rad, -b, b);
+  // Two steering properties outside the model library: on-centre free play (b > 0: the road
+  // wheels follow d_sw - clip(d_sw, -b, b)) or a lead (b < 0: d_sw + clip(d_sw, -|b|, |b|)), and a
+  // steering unequal left and right (d_sw (1 + k sgn d_sw)).
+  const double b = fx_.steer_deadband_deg * M_PI / 180.0, c = std::fabs(b);
+  const double d = steer_sw_rad - (b < 0 ? -1.0 : 1.0) * std::clamp(steer_sw_rad, -c, c);
   return d * (1.0 + 0.01 * fx_.steer_asymmetry_pct * (d > 0 ? 1.0 : d < 0 ? -1.0 : 0.0));
 }
 

@@ -2,7 +2,8 @@
 """The loop on a shape outside the library: diagnose names it, its formula brings the error to
 the floor.
 
-The simulator's steer_deadband_deg (on-centre play: the road wheels follow d_sw - clip(d_sw, -b, b)),
+The simulator's steer_deadband_deg (on-centre play: the road wheels follow d_sw - clip(d_sw, -b, b);
+negative, a lead: d_sw + clip(d_sw, -|b|, |b|)),
 steer_asymmetry_pct (the road wheels follow d_sw (1 + k sgn d_sw)) and accel_quadratic_pct (the
 accelerometer reads q + k2 q^2/g) are not in the model library. Their a_y error is an offset odd
 (w(v) sgn d_sw) or even (w(v) |d_sw|, a_y^2) in the turn, not a gain; the two even ones are told
@@ -17,7 +18,7 @@ case (magnitudes, both signs, a play beside a library effect), on held-out drive
   among the final effects (a library effect that stood in for part of it on the first pass is
   not added beside it); with the ladder's final effects the held-out RMSEs of a_y and of the yaw
   rate are within 15 % of the clean twin's, and `replay` publishes EG within 1 % of the truth,
-  valid, and the formula's parameter near the truth (the play b within 10 %, the asymmetry k
+  valid, and the formula's parameter near the truth (the play b and the lead c within 10 %, the asymmetry k
   within 0.01, the accelerometer's k2 within 15 %).
 Catches: a signature that does not lead on its shape, a verdict that picks a gain instead or the
 wrong one of the even shapes, a template that does not state the property (its sign, its unit,
@@ -44,6 +45,7 @@ CASES = (
     (41, ["steer_deadband_deg=2"], (ODD,), "steering_play", "b", math.radians(2)),
     (42, ["steer_deadband_deg=1"], (ODD,), "steering_play", "b", math.radians(1)),
     (31, ["steer_deadband_deg=1.5", "steer_offset_deg=1"], (ODD,), "steering_play", "b", math.radians(1.5)),
+    (47, ["steer_deadband_deg=-1.5"], (ODD,), "steering_lead", "c", math.radians(1.5)),
     (43, ["steer_asymmetry_pct=4"], (STEER, EITHER), "steering_unequal", "k", 0.04),
     (32, ["steer_asymmetry_pct=-3"], (STEER, EITHER), "steering_unequal", "k", -0.03),
     (43, ["accel_quadratic_pct=15"], (ACCEL, EITHER), "accel_even", "k2", 0.15),
@@ -130,7 +132,7 @@ for seed, effects, shapes, expected, param, truth in CASES:
                       f"above the twin's {floor:.4f}, {floor_r:.4f}")
     if abs(eg / eg_truth - 1) > 0.01:
         errors.append(f"seed {seed}: with the template EG {eg:.4f} is more than 1 % off the truth {eg_truth:.4f}")
-    tol = {"b": 0.1 * abs(truth), "k": 0.01, "k2": 0.15 * abs(truth)}[param]
+    tol = {"b": 0.1 * abs(truth), "c": 0.1 * abs(truth), "k": 0.01, "k2": 0.15 * abs(truth)}[param]
     if fitted is None or abs(fitted - truth) > tol:
         errors.append(f"seed {seed}: fitted {param} {fitted}, truth {truth:.5f} (tolerance {tol:.4f})")
     if not est.get("valid"):

@@ -43,7 +43,8 @@ TEST(SimulationConfig, UnknownKeyIsRejectedWithLine) {
   EXPECT_THROW(ParseSimulationConfig("road:\n  parking_turns: 21\n", "x.yaml"), ConfigError);
   EXPECT_THROW(ParseSimulationConfig("road:\n  parking_turns: -1\n", "x.yaml"), ConfigError);
   EXPECT_THROW(ParseSimulationConfig("road:\n  parking_turns: 2.5\n", "x.yaml"), ConfigError);
-  EXPECT_THROW(ParseSimulationConfig("effects:\n  steer_deadband_deg: -1\n", "x.yaml"), ConfigError);
+  EXPECT_EQ(ParseSimulationConfig("effects:\n  steer_deadband_deg: -1\n", "x.yaml").effects.steer_deadband_deg, -1.0);
+  EXPECT_THROW(ParseSimulationConfig("effects:\n  steer_deadband_deg: -31\n", "x.yaml"), ConfigError);
   EXPECT_THROW(ParseSimulationConfig("effects:\n  steer_asymmetry_pct: 40\n", "x.yaml"), ConfigError);
   EXPECT_EQ(ParseSimulationConfig("effects:\n  steer_asymmetry_pct: -4\n", "x.yaml").effects.steer_asymmetry_pct, -4.0);
   EXPECT_THROW(ParseSimulationConfig("effects:\n  accel_quadratic_pct: 31\n", "x.yaml"), ConfigError);

@@ -182,13 +182,17 @@ TEST(VehicleTruth, SteeringPlayAndUnequalSidesActOnTheRoadWheels) {
   const auto p = BaseParams(cfg.vehicle);
   const double l = cfg.vehicle.wheelbase_m;
   const VehicleTruth plain(p, l, cfg.effects, cfg.integration);
-  config::SimEffects play_fx = cfg.effects, unequal_fx = cfg.effects;
+  config::SimEffects play_fx = cfg.effects, unequal_fx = cfg.effects, lead_fx = cfg.effects;
   play_fx.steer_deadband_deg = 2.0;
+  lead_fx.steer_deadband_deg = -2.0;
   unequal_fx.steer_asymmetry_pct = -4.0;
-  const VehicleTruth play(p, l, play_fx, cfg.integration), unequal(p, l, unequal_fx, cfg.integration);
+  const VehicleTruth play(p, l, play_fx, cfg.integration), unequal(p, l, unequal_fx, cfg.integration),
+      lead(p, l, lead_fx, cfg.integration);
   const double b = 2.0 * M_PI / 180.0;
   EXPECT_DOUBLE_EQ(play.Linkage(0.01), 0.0);  // inside the play: the wheels stay straight
   EXPECT_DOUBLE_EQ(play.Linkage(-0.3), -0.3 + b);
+  EXPECT_DOUBLE_EQ(lead.Linkage(0.01), 0.02);  // inside the lead: the wheels turn twice as far
+  EXPECT_DOUBLE_EQ(lead.Linkage(-0.3), -0.3 - b);
   EXPECT_DOUBLE_EQ(unequal.Linkage(0.3), 0.3 * 0.96);
   EXPECT_DOUBLE_EQ(unequal.Linkage(-0.3), -0.3 * 1.04);
   for (double v : {2.0, 25.0}) {  // the kinematic model at walking pace, the dynamic one at speed
