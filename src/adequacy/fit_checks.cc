@@ -120,10 +120,13 @@ Check Halves(const FitFacts& f, const config::PlausibilityConfig& q) {
 Check ModelChoice(const FitFacts& f, const config::PlausibilityConfig& q) {
   Check c{.name = "model_choice"};
   const ModelChoiceFacts& m = *f.model_choice;
-  std::string each;
+  std::string each, configured;
   for (const AlternativeFacts& a : m.alternatives) {
-    each += Fmt("%s%s %+.2f %%: ", each.empty() ? "" : "; ", a.name.c_str(), 100 * a.scale);
-    each += a.ruled_out ? "ruled out (" + a.ruled_out_why + ")" : Fmt("EG %.3f +- %.3f", a.eg_deg_per_g, a.eg_se_deg_per_g);
+    std::string& list = a.configured ? configured : each;
+    list += (list.empty() ? "" : "; ") +
+            (a.configured ? Fmt("+%s (%s %.4g)", a.name.c_str(), a.parameter.c_str(), a.scale)
+                          : Fmt("%s %+.2f %%", a.name.c_str(), 100 * a.scale)) + ": ";
+    list += a.ruled_out ? "ruled out (" + a.ruled_out_why + ")" : Fmt("EG %.3f +- %.3f", a.eg_deg_per_g, a.eg_se_deg_per_g);
   }
   for (const std::string& n : m.notes) each += (each.empty() ? "" : "; ") + n;
   const double spread = ModelChoiceSpread(f.eg_deg_per_g, m);
@@ -134,16 +137,19 @@ Check ModelChoice(const FitFacts& f, const config::PlausibilityConfig& q) {
   c.verdict = c.value <= q.model_choice_spread_rel_max && !orphaned ? Verdict::kPassed : Verdict::kFailed;
   c.message = m.gain > 0 ? Fmt("a_y against v*r gain %.4f +- %.4f", m.gain, m.gain_se) : std::string("a_y against v*r agree");
   if (!m.wheel_note.empty()) c.message += "; " + m.wheel_note;
-  c.message += Fmt(": refitted with the disagreement in each sensor (%s): EG spread %.3f deg/g = %.1f %% of |EG| (accepted <= "
-                   "%.0f %%), sigma(EG) widened %.3f -> %.3f deg/g",
-                   each.c_str(), spread, 100 * c.value, 100 * q.model_choice_spread_rel_max, m.eg_se_published_deg_per_g, widened);
+  if (!each.empty()) c.message += ": refitted with the disagreement in each sensor (" + each + ")";
+  if (!configured.empty()) c.message += ": refitted with each of model.alternatives (" + configured + ")";
+  c.message += Fmt(": EG spread %.3f deg/g = %.1f %% of |EG| (accepted <= %.0f %%), sigma(EG) widened %.3f -> %.3f deg/g", spread,
+                   100 * c.value, 100 * q.model_choice_spread_rel_max, m.eg_se_published_deg_per_g, widened);
   if (!m.fit_ruled_out_why.empty())
     c.message += "; the fit as identified ruled out (" + m.fit_ruled_out_why + ")" +
                  (m.published.empty() ? ": no attribution stands" : ": the " + m.published + " refit is published");
   if (c.verdict == Verdict::kFailed)
     c.message += orphaned ? ": the rear wheels contradict every model fitted (the track width, the wheel-speed role or slip?)"
-                          : ": EG depends on which sensor's scale is off, and the bus does not say (a second yaw or speed "
-                            "reference decides it)";
+                          : each.empty() ? ": EG depends on which of the models is right, and the data do not say (a prior on "
+                                           "the effect, model.priors, or more varied driving decides it)"
+                                         : ": EG depends on which sensor's scale is off, and the bus does not say (a second yaw or "
+                                           "speed reference decides it)";
   return c;
 }
 

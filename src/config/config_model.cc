@@ -83,6 +83,9 @@ ParameterPrior ReadPrior(const YamlReader& ps, const std::string& name) {
 
 void ReadModel(const YamlReader& m, Config& c) {
   c.model_effects = m.Strings("effects", {});
+  c.model_alternatives = m.Strings("alternatives", {});
+  if (c.model_alternatives.size() > kMaxAlternatives)
+    m.Fail("alternatives", "at most " + std::to_string(kMaxAlternatives) + " alternatives (each is one more fit of the window per estimate)");
   if (m.Has("formulas")) {
     const YamlReader fs = m.Child("formulas");
     for (const auto& kv : fs.node()) c.model_formulas.push_back(ReadFormula(fs, kv.first.as<std::string>()));

@@ -35,6 +35,11 @@ size_t Indent(const std::string& l) { return l.find_first_not_of(" \t") == std::
 
 std::string SetModelEffects(const std::string& yaml_text, const std::vector<std::string>& effects,
                             const std::string& path, std::string* description) {
+  return SetModelList(yaml_text, "effects", effects, path, description);
+}
+
+std::string SetModelList(const std::string& yaml_text, const std::string& key, const std::vector<std::string>& effects,
+                         const std::string& path, std::string* description) {
   std::vector<std::string> lines = Lines(yaml_text);
   const auto& strip_comment = StripComment;
   const auto& trim = Trim;
@@ -42,7 +47,8 @@ std::string SetModelEffects(const std::string& yaml_text, const std::vector<std:
   std::string old_list = "[]";
   std::string what;
   static const std::regex kModel(R"(^model\s*:(.*)$)");
-  static const std::regex kEffects(R"(^(\s+)effects\s*:(.*)$)");
+  const std::regex kEffects("^(\\s+)" + key + "\\s*:(.*)$");
+  const std::string entry = "  " + key + ": " + list;
   std::smatch m;
   size_t model_line = lines.size();
   for (size_t i = 0; i < lines.size(); ++i) {
@@ -51,12 +57,14 @@ std::string SetModelEffects(const std::string& yaml_text, const std::vector<std:
   if (model_line == lines.size()) {
     if (!lines.empty() && !trim(lines.back()).empty()) lines.push_back("");
     lines.push_back("model:");
-    lines.push_back("  effects: " + list + "  # written by ndsid diagnose --apply");
+    lines.push_back(entry + "  # written by ndsid diagnose --apply");
     what = "added the model section";
   } else if (std::regex_match(lines[model_line], m, kModel) && !trim(strip_comment(m[1].str())).empty()) {
+    if (key != "effects")
+      throw ConfigError(path + ": model is written on one line; set model." + key + " by hand (" + list + ")");
     old_list = trim(strip_comment(m[1].str()));
     lines[model_line] = "model:";
-    lines.insert(lines.begin() + static_cast<long>(model_line) + 1, "  effects: " + list);
+    lines.insert(lines.begin() + static_cast<long>(model_line) + 1, entry);
     what = "rewrote the one-line model section at line " + std::to_string(model_line + 1);
   } else {
     size_t end = model_line + 1;
@@ -68,8 +76,8 @@ std::string SetModelEffects(const std::string& yaml_text, const std::vector<std:
       if (effects_line == lines.size() && std::regex_match(l, m, kEffects)) effects_line = end;
     }
     if (effects_line == lines.size()) {
-      lines.insert(lines.begin() + static_cast<long>(model_line) + 1, "  effects: " + list);
-      what = "added model.effects at line " + std::to_string(model_line + 2);
+      lines.insert(lines.begin() + static_cast<long>(model_line) + 1, entry);
+      what = "added model." + key + " at line " + std::to_string(model_line + 2);
     } else {
       std::regex_match(lines[effects_line], m, kEffects);
       const std::string indent = m[1].str();
@@ -89,17 +97,20 @@ std::string SetModelEffects(const std::string& yaml_text, const std::vector<std:
         old_list = JoinEffects(old);
       }
       const size_t pad = std::max<size_t>(1, 28 - std::min<size_t>(28, indent.size() + 9 + list.size()));
-      lines[effects_line] = indent + "effects: " + list + (comment.empty() ? "" : std::string(pad, ' ') + trim(comment));
+      lines[effects_line] = indent + key + ": " + list + (comment.empty() ? "" : std::string(pad, ' ') + trim(comment));
       what = "line " + std::to_string(effects_line + 1);
     }
   }
   std::string out;
   for (const auto& l : lines) out += l + "\n";
   const config::Config parsed = config::ParseConfig(out, path);
-  if (parsed.model_effects != effects) {
-    throw ConfigError(path + ": editing model.effects did not give " + list + " (got " + JoinEffects(parsed.model_effects) + ")");
+  const std::vector<std::string>& got = key == "effects" ? parsed.model_effects : parsed.model_alternatives;
+  if (got != effects) {
+    throw ConfigError(path + ": editing model." + key + " did not give " + list + " (got " + JoinEffects(got) + ")");
   }
-  if (description) *description = "model.effects: " + old_list + " -> " + list + " (" + what + ")";
+  if (key != "effects" && parsed.model_effects != config::ParseConfig(yaml_text, path).model_effects)
+    throw ConfigError(path + ": editing model." + key + " changed model.effects");
+  if (description) *description = "model." + key + ": " + old_list + " -> " + list + " (" + what + ")";
   return out;
 }
 

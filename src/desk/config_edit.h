@@ -15,6 +15,11 @@ namespace ndsid::desk {
 std::string SetModelEffects(const std::string& yaml_text, const std::vector<std::string>& effects,
                             const std::string& path_for_messages, std::string* description);
 
+// The same for another list of names under `model:` (key "effects" or "alternatives"); a model
+// section written on one line is rewritten for "effects" only (else a ConfigError).
+std::string SetModelList(const std::string& yaml_text, const std::string& key, const std::vector<std::string>& names,
+                         const std::string& path_for_messages, std::string* description);
+
 // The YAML text with `signals.<role>.latency_s` set for each role given (flow `{...}` or block
 // mapping). Throws ConfigError when a role is not configured or the result does not parse back
 // to those values.

@@ -55,6 +55,7 @@ std::unique_ptr<ReplayedData> ReplayForModelWork(const std::string& config_path,
   d->config = config::LoadConfig(config_path);
   model::ModelSpec::FromNames(pipeline_effects, model::EffectLibrary(d->config.model_formulas));  // before the replay
   d->config.model_effects = pipeline_effects;
+  d->config.model_alternatives.clear();  // the desk fits the models it compares itself
   const std::vector<std::string> use = logs.empty() ? d->config.source.logs : logs;
   if (use.empty()) throw ConfigError("no log to replay: give --log FILE or source.logs in " + config_path);
   for (const std::string& p : use) {

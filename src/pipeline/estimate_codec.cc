@@ -41,11 +41,16 @@ adequacy::Check CheckFromJson(const JsonIn& in) {
 // The model-choice refits (pipeline/model_choice.h); only written when they were made.
 nlohmann::json ModelChoiceJson(const ModelChoice& m) {
   nlohmann::json alts = nlohmann::json::array();
-  for (const ModelAlternative& a : m.alternatives)
+  for (const ModelAlternative& a : m.alternatives) {
     alts.push_back({{"name", a.name}, {"scale", a.scale}, {"fitted", a.fitted}, {"reason", a.reason},
                     {"eg_deg_per_g", a.eg_deg_per_g}, {"eg_se_deg_per_g", a.eg_se_deg_per_g},
                     {"rmse_a_y_mps2", a.rmse_a_y_mps2}, {"rmse_yaw_degps", a.rmse_yaw_degps},
                     {"ruled_out", a.ruled_out}, {"ruled_out_why", a.ruled_out_why}});
+    if (a.configured) {  // model.alternatives: `scale` is the value of `parameter`
+      alts.back()["configured"] = true;
+      alts.back()["parameter"] = a.parameter;
+    }
+  }
   nlohmann::json j = {{"kinematic_gain", m.gain}, {"kinematic_gain_se", m.gain_se}, {"alternatives", alts}, {"notes", m.notes},
                       {"seconds", m.seconds}, {"fit_ruled_out_why", m.fit_ruled_out_why}, {"published", m.published}};
   if (m.wheel_yaw.available || !m.wheel_yaw.note.empty())
@@ -64,6 +69,10 @@ ModelChoice ModelChoiceFromJson(const JsonIn& in) {
                               .eg_se_deg_per_g = a.Number("eg_se_deg_per_g"), .rmse_a_y_mps2 = a.Number("rmse_a_y_mps2"),
                               .rmse_yaw_degps = a.Number("rmse_yaw_degps"), .ruled_out = a.Bool("ruled_out"),
                               .ruled_out_why = a.String("ruled_out_why")});
+    if (a.Has("configured")) {
+      m.alternatives.back().configured = a.Bool("configured");
+      m.alternatives.back().parameter = a.String("parameter");
+    }
   }
   m.notes = in.At("notes").Strings(16);
   m.seconds = in.Number("seconds");

@@ -44,7 +44,8 @@ void ScaleFloorsForSlowRoles(const WindowSnapshot& snap, double fit_rate_hz, ide
 adequacy::ModelChoiceFacts ModelChoiceFactsOf(const ModelChoice& choice, double eg_se_published_deg_per_g) {
   adequacy::ModelChoiceFacts m{.gain = choice.gain, .gain_se = choice.gain_se, .eg_se_published_deg_per_g = eg_se_published_deg_per_g};
   for (const ModelAlternative& a : choice.alternatives)
-    m.alternatives.push_back({.name = a.name, .scale = a.scale, .eg_deg_per_g = a.eg_deg_per_g,
+    m.alternatives.push_back({.name = a.name, .scale = a.scale, .configured = a.configured, .parameter = a.parameter,
+                              .eg_deg_per_g = a.eg_deg_per_g,
                               .eg_se_deg_per_g = a.eg_se_deg_per_g, .ruled_out = a.ruled_out, .ruled_out_why = a.ruled_out_why});
   m.notes = choice.notes;
   m.wheel_note = choice.wheel_yaw.note;

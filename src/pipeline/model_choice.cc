@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "ndsid/common/error.h"
 #include "ndsid/common/format.h"
 #include "ndsid/pipeline/pipeline.h"
 #include "ndsid/stats/speed_scale.h"
@@ -43,13 +44,24 @@ bool SpeedScaleDecided(const std::vector<const stats::Segment*>& window, double 
   return true;
 }
 
-// One refit of the window with `effect`'s scale (added to the model when it lacks it) free, started
-// at the attribution `value`; the scale the fit ends on is the alternative's.
-// held: the scale held at `value` (the alternative named effect + kHeldSuffix).
+// The index in `spec` of `effect`'s first parameter (-1: the model lacks it or it has none).
+int FirstParam(const model::ModelSpec& spec, const std::string& effect) {
+  for (size_t i = 0; i < spec.effects().size(); ++i) {
+    if (spec.effects()[i]->info().name != effect || spec.effects()[i]->info().params.empty()) continue;
+    return spec.param_offset(i);
+  }
+  return -1;
+}
+
+// One refit of the window with `effect` (added to the model when it lacks it) free. A scale
+// attribution starts its scale at `value` (the scale the fit ends on is the alternative's); a
+// configured alternative (no value) starts at the effect's initial values, and its first parameter's
+// value is the alternative's. held: the scale held at `value` (the alternative named effect +
+// kHeldSuffix).
 ModelAlternative Refit(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                       const identify::IdentificationResult& fit, const std::string& effect, double value,
+                       const identify::IdentificationResult& fit, const std::string& effect, std::optional<double> value,
                        const std::optional<config::ParameterPrior>& prior, bool held = false) {
-  ModelAlternative alt{.name = held ? effect + kHeldSuffix : effect, .scale = value};
+  ModelAlternative alt{.name = held ? effect + kHeldSuffix : effect, .scale = value.value_or(0), .configured = !value};
   const model::ModelSpec& spec = identifier.spec();
   std::vector<std::string> names = spec.effect_names();
   if (std::find(names.begin(), names.end(), effect) == names.end()) names.push_back(effect);
@@ -58,15 +70,16 @@ ModelAlternative Refit(const identify::Identifier& identifier, const WindowSnaps
     std::erase_if(cfg.priors, [&](const config::ParameterPrior& p) { return p.name == prior->name; });
     cfg.priors.push_back(*prior);
   }
-  if (held) cfg.fixed_effect_params.emplace_back(effect, value);
+  if (held && value) cfg.fixed_effect_params.emplace_back(effect, *value);
   try {
     const model::ModelSpec alt_spec = model::ModelSpec::FromNames(names, spec.library());
     identify::Identifier id(cfg, identifier.wheelbase_m(), alt_spec);
     id.set_standstill(snap.standstill);
     id.set_drive_values(fit.drive_values);
     std::vector<double> start = fit.ValuesFor(alt_spec);
-    const int k = alt_spec.param_index(effect);
-    if (k >= 0 && k < static_cast<int>(start.size())) start[k] = value;
+    const int k = value ? alt_spec.param_index(effect) : FirstParam(alt_spec, effect);
+    if (value && k >= 0 && k < static_cast<int>(start.size())) start[k] = *value;
+    if (!value && k >= 0) alt.parameter = alt_spec.param_name(k) + " [" + alt_spec.param_unit(k) + "]";
     const identify::IdentificationResult r = id.Identify(snap.training, snap.validation, start);
     if (k >= model::kNumParams && k < static_cast<int>(r.effect_params.size()) + model::kNumParams)
       alt.scale = r.effect_params[k - model::kNumParams].value;
@@ -141,9 +154,11 @@ void RefereeByWheels(double own, double track_rear_m, ModelChoice& choice) {
   if (!choice.wheel_yaw.available) return;
   for (ModelAlternative& a : choice.alternatives) {
     if (a.ruled_out) continue;
-    const double predicted = a.name.starts_with("gyro_scale") ? PredictedWheelScale(a.scale, 0)
-                             : a.name == "speed_scale" ? PredictedWheelScale(0, a.scale)
-                                                       : 0.0;
+    const double predicted = a.configured && a.result
+                                 ? PredictedWheelScale(EffectValue(*a.result, "gyro_scale"), EffectValue(*a.result, "speed_scale"))
+                             : a.name.starts_with("gyro_scale") ? PredictedWheelScale(a.scale, 0)
+                             : a.name == "speed_scale"          ? PredictedWheelScale(0, a.scale)
+                                                                : 0.0;
     a.ruled_out = WheelsContradict(choice.wheel_yaw, predicted, a.ruled_out_why);
   }
   if (!WheelsContradict(choice.wheel_yaw, own, choice.fit_ruled_out_why)) return;
@@ -173,21 +188,18 @@ bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy
   return d > kSignificanceZ * k->value_se && d > kMinScaleDisagreement;
 }
 
-ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const WindowSnapshot& snap,
-                                 const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
-                                 double track_rear_m) {
-  ModelChoice choice;
-  if (!fit.valid || !fit.yaw_rate_output) return choice;
+namespace {
+
+// The scale attributions (above) when the kinematics or the rear wheels show a disagreement.
+void FitScaleAttributions(const identify::Identifier& identifier, const WindowSnapshot& snap,
+                          const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
+                          double own, ModelChoice& choice) {
   const bool kinematics = ScaleDisagreement(fit, data_checks, &choice.gain, &choice.gain_se);
-  const std::vector<const stats::Segment*> window = snap.AllSegments();
-  const WheelYawFacts wheels = WheelEvidence(window, track_rear_m);
-  const double own = PredictedWheelScale(EffectValue(fit, "gyro_scale"), EffectValue(fit, "speed_scale"));
+  const WheelYawFacts& wheels = choice.wheel_yaw;
   const bool wheels_disagree = wheels.available && std::abs(wheels.scale - own) > kSignificanceZ * wheels.sd &&
                                std::abs(wheels.scale - own) > kMinScaleDisagreement;
-  if (!kinematics && !wheels_disagree) return choice;
-  const auto t0 = std::chrono::steady_clock::now();
+  if (!kinematics && !wheels_disagree) return;
   choice.judged = true;
-  choice.wheel_yaw = wheels;
   // Starts: where the kinematic gain puts each scale; the gyro's where the rear wheels do.
   const double g = choice.gain > 0 ? choice.gain : 1.0;
   const double s = wheels.available ? wheels.scale : 1 / g - 1;
@@ -201,7 +213,7 @@ ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const W
       continue;
     }
     std::string why;
-    if (std::string(a.effect) == "speed_scale" && SpeedScaleDecided(window, a.value, why)) {
+    if (std::string(a.effect) == "speed_scale" && SpeedScaleDecided(snap.AllSegments(), a.value, why)) {
       choice.notes.push_back(why);
       continue;
     }
@@ -217,9 +229,49 @@ ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const W
       choice.alternatives.push_back(std::move(at));
     }
   }
+}
+
+}  // namespace
+
+ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const WindowSnapshot& snap,
+                                 const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
+                                 double track_rear_m, const std::vector<std::string>& configured) {
+  ModelChoice choice;
+  if (!fit.valid) return choice;
+  const auto t0 = std::chrono::steady_clock::now();
+  choice.wheel_yaw = WheelEvidence(snap.AllSegments(), track_rear_m);
+  const double own = PredictedWheelScale(EffectValue(fit, "gyro_scale"), EffectValue(fit, "speed_scale"));
+  if (fit.yaw_rate_output) FitScaleAttributions(identifier, snap, fit, data_checks, own, choice);
+  for (const std::string& name : configured) {
+    ModelAlternative alt = Refit(identifier, snap, fit, name, std::nullopt, std::nullopt);
+    JudgeAgainstFit(fit, alt);
+    choice.alternatives.push_back(std::move(alt));
+    choice.judged = true;
+  }
+  if (!choice.judged) return ModelChoice{};
   RefereeByWheels(own, track_rear_m, choice);
   choice.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return choice;
+}
+
+void CheckAlternatives(const std::vector<std::string>& alternatives, const std::vector<std::string>& effects,
+                       const model::EffectLibrary& library) {
+  for (size_t i = 0; i < alternatives.size(); ++i) {
+    const std::string& a = alternatives[i];
+    const std::string where = "model.alternatives: '" + a + "'";
+    if (!library.Find(a)) throw ConfigError(where + " is not an effect of the library or a formula (model.formulas)");
+    if (std::find(effects.begin(), effects.end(), a) != effects.end())
+      throw ConfigError(where + " is in model.effects already (an alternative is refitted added to the model)");
+    if (std::find(alternatives.begin(), alternatives.begin() + static_cast<long>(i), a) != alternatives.begin() + static_cast<long>(i))
+      throw ConfigError(where + " is listed twice");
+    std::vector<std::string> with = effects;
+    with.push_back(a);
+    try {
+      (void)model::ModelSpec::FromNames(with, library);
+    } catch (const ConfigError& e) {
+      throw ConfigError(where + " cannot be added to model.effects: " + e.what());
+    }
+  }
 }
 
 }  // namespace ndsid::pipeline

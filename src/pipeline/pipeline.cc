@@ -67,6 +67,7 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
       adequacy_(config.adequacy) {
   samples_.reserve(1024);
   timed_.reserve(sync::TimeBase::kConfirm + 2);
+  CheckAlternatives(config.model_alternatives, config.model_effects, library_);
   // model.priors must name a parameter of the base model, of a library effect or of a formula,
   // or EG itself.
   if (config.identification.priors.empty()) return;
@@ -270,10 +271,10 @@ FitJob Pipeline::StartFit(std::shared_ptr<const WindowSnapshot> snap) const {
   job.data_checks = CheckData(*job.snap);  // on this thread; the worker reads the kinematic gain
   job.result = std::async(std::launch::async, [snap = job.snap, identifier = identifier_, warm = WarmStart(), prior = Prior(),
                                                exact = ExactDue(), fit_s = job.fit_s, checks = job.data_checks, choice = job.choice,
-                                               track = config_.vehicle.track_rear_m] {
+                                               track = config_.vehicle.track_rear_m, alternatives = config_.model_alternatives] {
     const auto t0 = std::chrono::steady_clock::now();
     identify::IdentificationResult r = Fit(identifier, *snap, warm, prior, exact);
-    *choice = FitModelAlternatives(identifier, *snap, r, checks, track);
+    *choice = FitModelAlternatives(identifier, *snap, r, checks, track, alternatives);
     fit_s->store(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return r;
   });
@@ -408,7 +409,7 @@ const Estimate& Pipeline::IdentifyNow(bool final) {
   const auto t1 = std::chrono::steady_clock::now();
   const adequacy::PlausibilityReport checks = CheckData(snap);
   identify::IdentificationResult fit = Fit(identifier_, snap, WarmStart(), Prior(), final || ExactDue());
-  const ModelChoice choice = FitModelAlternatives(identifier_, snap, fit, checks, config_.vehicle.track_rear_m);
+  const ModelChoice choice = FitModelAlternatives(identifier_, snap, fit, checks, config_.vehicle.track_rear_m, config_.model_alternatives);
   const auto t2 = std::chrono::steady_clock::now();
   const Estimate& e = Accept(snap, std::move(fit), &checks, &choice);
   const auto t3 = std::chrono::steady_clock::now();

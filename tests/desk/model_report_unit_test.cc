@@ -112,6 +112,25 @@ TEST(SetModelEffects, RewritesOneLineModelMap) {
             (std::vector<std::string>{"steer_offset", "accel_bias"}));
 }
 
+// Catches: --apply's model.alternatives written over model.effects, or lost on a second edit.
+TEST(SetModelList, AddsAndReplacesAlternativesBesideTheEffects) {
+  const std::string before = SetModelEffects(Pristine(), {"steer_offset"}, NDSID_APP_PRISTINE, nullptr);
+  std::string what;
+  const std::string added = SetModelList(before, "alternatives", {"lever_arm", "roll"}, NDSID_APP_PRISTINE, &what);
+  const config::Config a = config::ParseConfig(added, NDSID_APP_PRISTINE);
+  EXPECT_EQ(a.model_effects, std::vector<std::string>{"steer_offset"});
+  EXPECT_EQ(a.model_alternatives, (std::vector<std::string>{"lever_arm", "roll"}));
+  EXPECT_NE(what.find("model.alternatives: [] -> [lever_arm, roll]"), std::string::npos) << what;
+  const std::string replaced = SetModelList(added, "alternatives", {}, NDSID_APP_PRISTINE, &what);
+  EXPECT_TRUE(config::ParseConfig(replaced, NDSID_APP_PRISTINE).model_alternatives.empty()) << replaced;
+  EXPECT_EQ(config::ParseConfig(replaced, NDSID_APP_PRISTINE).model_effects, std::vector<std::string>{"steer_offset"});
+  EXPECT_EQ(ChangedLines(replaced, added).size(), 1u);
+  std::string one_line = Pristine();
+  const size_t s = one_line.find("\nmodel:"), e = one_line.find("\nstate_dir:");
+  one_line.replace(s, e - s, "\nmodel: {effects: [roll]}\n");
+  EXPECT_THROW(SetModelList(one_line, "alternatives", {"lever_arm"}, NDSID_APP_PRISTINE, nullptr), ConfigError);
+}
+
 // --- the failing-bin rule ---------------------------------------------------------------------
 TEST(ComputeBin, FlagsBiasLargerThanClusteredErrorAndHalfNoiseFloor) {
   std::vector<double> e;

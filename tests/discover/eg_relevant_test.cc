@@ -70,6 +70,7 @@ TEST(EgRelevantRule, BodyRollTheBankAbsorbsIsAddedAndEgRecovered) {
     EXPECT_LT(std::abs(fit.eg_rad_per_mps2 / EgTruth() - 1), 0.01) << fit.eg_deg_per_g;
     EXPECT_GT(std::abs(l.rungs[0].fit.eg_rad_per_mps2 / EgTruth() - 1), 0.03) << "the bank absorbed the roll";
     EXPECT_TRUE(l.eg_unsettled.empty()) << l.eg_unsettled;
+    EXPECT_TRUE(l.eg_unsettled_effects.empty());
   }
 }
 
@@ -95,6 +96,7 @@ TEST(EgRelevantRule, ACandidateThatMovesEgButIsNotAddedLeavesEgUnsettled) {
   const discover::Ladder l = Climb(train, valid, {"roll"}, /*eg_relevant_min_improvement=*/1.0);  // neither rule can add
   ASSERT_EQ(l.rungs.size(), 1u);
   EXPECT_NE(l.eg_unsettled.find("roll"), std::string::npos) << l.eg_unsettled;
+  EXPECT_EQ(l.eg_unsettled_effects, std::vector<std::string>{"roll"});  // what --apply writes as model.alternatives
 }
 
 // Catches: "EG not settled" raised by a refit the held-out data reject (on a real handling-track set,

@@ -54,10 +54,13 @@ struct HalfFacts {
   int drives = 0;
 };
 
-// One attribution of a kinematic scale disagreement to a sensor, refitted with its scale free.
+// One attribution of a kinematic scale disagreement to a sensor, refitted with its scale free, or
+// a configured alternative (model.alternatives) refitted added to the model.
 struct AlternativeFacts {
-  std::string name;          // accel_scale | gyro_scale | speed_scale
-  double scale = 0;          // the scale the refit ended on
+  std::string name;          // accel_scale | gyro_scale | speed_scale, or the configured effect
+  double scale = 0;          // the scale the refit ended on; configured: its first parameter's value
+  bool configured = false;
+  std::string parameter;     // configured: that parameter's name and unit
   double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
   bool ruled_out = false;    // the data contradict it (its held-out RMSE), why in ruled_out_why
   std::string ruled_out_why;

@@ -107,6 +107,8 @@ struct ParameterSpec {
 
 // model.priors' name of a prior on the self-steering gradient itself (value and sd in deg/g).
 inline constexpr const char* kEgPriorName = "eg_deg_per_g";
+// model.alternatives: at most this many (each is one more fit of the window per estimate).
+inline constexpr size_t kMaxAlternatives = 8;
 
 // A Gaussian prior on one model parameter (model.priors in the YAML): a data-sheet roll
 // gradient, a measured tyre radius... Enters the fit as a residual (p - value)/sd weighted by
@@ -257,6 +259,10 @@ struct Config {
   std::string log_level = "info";
   std::vector<std::string> model_effects;  // effect names added to the base model
   std::vector<FormulaSpec> model_formulas; // model.formulas: user effects stated as formulas
+  // model.alternatives: effects (library or formula) the data do not decide against the model;
+  // each estimate refits the window with each one added and sigma(EG) covers the EGs of those the
+  // held-out data do not rule out (the model_choice check; `ndsid diagnose --apply` writes them).
+  std::vector<std::string> model_alternatives;
 
   const RoleSignal* role(Role r) const { return roles[static_cast<int>(r)] ? &*roles[static_cast<int>(r)] : nullptr; }
 };

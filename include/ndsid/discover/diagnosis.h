@@ -226,6 +226,7 @@ struct Ladder {
   std::vector<OutputVerdict> verdicts;     // the final model's outputs against their noise floors
   // Empty when EG is settled; else which refits of the last rung move EG, by how much (LadderOptions).
   std::string eg_unsettled;
+  std::vector<std::string> eg_unsettled_effects;  // those refits' effects (`--apply` writes them as model.alternatives)
 };
 
 // Step 0 (align the roles in time), then base -> + first effect -> + second ...: diagnose,

@@ -22,7 +22,11 @@
 // attribution is refitted twice there: free with the wheels' prior, and held at their value
 // (gyro_scale_at_wheels); the spread over both covers a disagreement of the two references.
 // The checks of the fit (adequacy::ModelChoiceSpread) widen sigma(EG) by the spread of the rest. Only fits with the yaw rate as an output are judged
-// (with a_y alone the scales are absorbed into is and EG: physics.md §4).
+// for the scales (with a_y alone the scales are absorbed into is and EG: physics.md §4).
+// Configured alternatives (model.alternatives, written by `ndsid diagnose --apply` where EG is not
+// settled): every valid fit, with either output, is refitted once per effect listed, added to the
+// model and started at its initial values, and judged the same way (ruled out by a held-out RMSE,
+// by the rear wheels through the scales it ends on); the spread covers those that stand.
 #pragma once
 
 #include <memory>
@@ -39,8 +43,12 @@ struct WindowSnapshot;
 
 // One attribution of the scale disagreement, refitted on the window.
 struct ModelAlternative {
-  std::string name;          // the effect the disagreement is attributed to: accel_scale | gyro_scale | speed_scale
-  double scale = 0;          // its fitted value (the attribution from the gain when not fitted)
+  std::string name;          // the effect the disagreement is attributed to: accel_scale | gyro_scale | speed_scale,
+                             // or a configured alternative's effect
+  double scale = 0;          // its fitted value (the attribution from the gain when not fitted); configured: the
+                             // value of the effect's first parameter
+  bool configured = false;   // a configured alternative (model.alternatives), not a scale attribution
+  std::string parameter;     // configured: that parameter's name and unit ("lever_arm_m [m]")
   bool fitted = false;       // false: the refit failed (reason)
   std::string reason;        // why not fitted
   double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
@@ -83,14 +91,19 @@ inline constexpr const char* kHeldSuffix = "_at_wheels";
 
 // Whether the window's kinematics check shows a significant scale disagreement for a fit with
 // the yaw rate as an output (the gain and its se from `data_checks`' window-level kinematics).
+// model.alternatives against the model: each a library or formula effect, not in model.effects,
+// listed once, and compatible with the model's effects (no parameter shared). Throws ConfigError.
+void CheckAlternatives(const std::vector<std::string>& alternatives, const std::vector<std::string>& effects,
+                       const model::EffectLibrary& library);
+
 bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
                        double* gain = nullptr, double* gain_se = nullptr);
 
 // Refits the snapshot once per attribution (nothing when neither the kinematics nor the rear
-// wheels show a disagreement). track_rear_m: vehicle.track_rear_m (0: no wheel evidence). Runs on
-// the fit's thread; touches no pipeline state.
+// wheels show a disagreement) and once per configured alternative. track_rear_m:
+// vehicle.track_rear_m (0: no wheel evidence). Runs on the fit's thread; touches no pipeline state.
 ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const WindowSnapshot& snap,
                                  const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
-                                 double track_rear_m = 0);
+                                 double track_rear_m = 0, const std::vector<std::string>& configured = {});
 
 }  // namespace ndsid::pipeline

@@ -306,12 +306,18 @@ void WriteReport(DiagnoseReport& r, const std::string& out, const std::vector<st
   WriteCommandPage(out, page);
 }
 
-// --apply: the ladder's effect list and step 0's applied latencies written into the configuration.
+// --apply: the ladder's effect list, the effects that leave EG unsettled (model.alternatives:
+// written where there are some or the configuration lists some) and step 0's applied latencies
+// written into the configuration.
 void ApplyToConfig(const std::string& config_path, const std::vector<std::string>& final_effects,
-                   const std::map<config::Role, double>& new_latency) {
+                   const std::vector<std::string>& alternatives, const std::map<config::Role, double>& new_latency) {
   const std::string text = ReadWholeFile(config_path);
-  std::string what, what_latency;
+  std::string what, what_alternatives, what_latency;
   std::string edited = SetModelEffects(text, final_effects, config_path, &what);
+  if (!alternatives.empty() || !config::ParseConfig(text, config_path).model_alternatives.empty()) {
+    edited = SetModelList(edited, "alternatives", alternatives, config_path, &what_alternatives);
+    what += "; " + what_alternatives;
+  }
   if (!new_latency.empty()) edited = SetRoleLatencies(edited, new_latency, config_path, &what_latency);
   if (edited == text) {
     std::printf("--apply: %s unchanged, model.effects is already %s\n", config_path.c_str(), JoinEffects(final_effects).c_str());
@@ -413,7 +419,7 @@ int Run(const DiagnoseArgs& a) {
   const std::string out = a.out.empty() ? (fs::path(data->config.report_dir) / "diagnose").string() : a.out;
   WriteReport(report, out, final_effects, a.logs.empty() ? data->config.source.logs : a.logs,
               "ndsid diagnose: " + data->outcome.name);
-  if (a.apply) ApplyToConfig(a.config, final_effects, new_latency);
+  if (a.apply) ApplyToConfig(a.config, final_effects, ladder.eg_unsettled_effects, new_latency);
   return 0;
 }
 
