@@ -10,8 +10,9 @@
 #                               cmake/toolchain-arm64.cmake and builds ndsid, ndsidd and the
 #                               tests labelled arm64 (no venv, no Python module, no benchmarks)
 #   scripts/setup.sh --arch arm64 --unit-tests
-#                               the same, but builds only the arm64 unit tests (target
-#                               ndsid_arm64_unit_tests, label arm64; what scripts/test.sh runs)
+#                               the same, but builds only ndsid, ndsidd and the arm64 unit tests
+#                               (target ndsid_arm64_unit_tests, label arm64; what scripts/test.sh
+#                               runs: with the programs, the package and the replay against amd64)
 #   NDSID_BUILD_DIR=dir         build somewhere else
 #   NDSID_SKIP_INSTALL=1        only configure + build (no apt, no pip)
 set -euo pipefail
@@ -48,7 +49,7 @@ fi
 arm64_targets=(ndsid ndsidd ndsid_arm64_tests)
 if [[ "${1:-}" == "--unit-tests" ]]; then
   [[ "$arch" == arm64 ]] || { echo "setup.sh: --unit-tests goes with --arch arm64" >&2; exit 2; }
-  arm64_targets=(ndsid_arm64_unit_tests)
+  arm64_targets=(ndsid ndsidd ndsid_arm64_unit_tests)
   shift
 fi
 case "$arch" in

@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
 # README command 2: install what is missing, build, and run the test suite with CTest.
 #   scripts/test.sh           every test except those labelled "long" or "vm" (the CI default),
-#                             then the arm64 unit tests: cross built into build-arm64/ and run
-#                             under qemu-user (label "arm64"; docs/install.md, "arm64 (cross build)")
+#                             then the arm64 part: ndsid, ndsidd and the unit tests cross built
+#                             into build-arm64/, the unit tests and the replay run under qemu-user
+#                             and the arm64 package built and checked (label "arm64"; docs/install.md,
+#                             "arm64 (cross build)")
 #   scripts/test.sh --vm      only the VM test bed (label "vm", 11-17 min on 2 cores; docs/daemon.md)
 #   scripts/test.sh --all     everything, including the long accuracy studies, the VM tests and the
-#                             whole arm64 part (ndsid and ndsidd for arm64, their estimates and package)
+#                             whole arm64 part (with the estimates against the simulator's truth)
 #   extra arguments go to ctest (e.g. -R Dbc), in both builds
 # With clang present it also builds the fuzz targets (build-fuzz/, scripts/fuzz.sh --build), so
 # the label "fuzz" runs each for 20 s (docs/reliability.md); NDSID_SKIP_FUZZ=1 leaves that out.
 # NDSID_SKIP_ARM64=1 leaves the arm64 part out (it installs the cross compiler and qemu-user,
-# downloads the arm64 sysroot once, and takes about 8 min on 2 cores from an empty compiler cache).
+# downloads the arm64 sysroot once, and takes about 15 min on 2 cores from an empty compiler cache).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$here/scripts/setup.sh"
@@ -25,7 +27,7 @@ rc=0
 (cd "${NDSID_BUILD_DIR:-$here/build}" && ctest --output-on-failure -j "$(nproc)" --timeout 1500 "${args[@]}" "$@") || rc=$?
 if [[ "$mode" == vm || "${NDSID_SKIP_ARM64:-0}" == 1 ]]; then exit "$rc"; fi
 
-# The arm64 part: the unit tests by default, everything arm64 with --all.
+# The arm64 part: the label arm64 by default (unit tests, replay, package), everything arm64 with --all.
 arm64_dir="${NDSID_ARM64_BUILD_DIR:-$here/build-arm64}"
 setup_args=(--arch arm64 --unit-tests)
 arm64_args=(-L arm64 -LE long)
