@@ -164,11 +164,26 @@ TEST(ModelChoice, AConfiguredAlternativeThatMovesEgWidensSigma) {
   }
 }
 
-// Catches: a configured alternative that the clean data cannot tell from its absence ruining the
-// estimate: the lever arm refitted ends near 0, stands, and moves EG within its sigma.
+// Catches: configured alternatives that clean data cannot tell from their absence ruining the
+// estimate, and a formula effect (model.formulas) not found as an alternative: the lever arm and
+// an accelerometer gain stated as a formula, refitted, stand and move EG within its sigma.
 TEST(ModelChoice, AConfiguredAlternativeOnCleanDataLeavesTheEstimateValid) {
   ReplayTweaks tweaks = kTwoOutputs;
-  tweaks.alternatives = {"lever_arm"};
+  tweaks.alternatives = {"lever_arm", "a_y_gain"};
+  tweaks.formulas = config::ParseConfig(R"yaml(vehicle: {name: t, wheelbase_m: 2.648, mass_kg: 1900}
+source: {type: log, logs: [x.log]}
+dbc: x.dbc
+signals:
+  steering_wheel_angle: {message: A, signal: B, unit: deg}
+  vehicle_speed: {message: A, signal: C, unit: km/h}
+  lateral_acceleration: {message: A, signal: D, unit: m/s^2}
+model:
+  formulas:
+    a_y_gain:
+      a_y_meas: "a_y*(1 + s)"
+      parameters:
+        s: {min: -0.2, max: 0.2}
+)yaml", "formulas.yaml").model_formulas;
   SimulatedRun run = SimulateAndReplay("model_choice_lever_clean", 307, kHours, {}, {"road_bank", "gyro_offset"}, tweaks);
   const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
   const double truth = model::EgToDegPerG(run.eg_truth);
@@ -183,6 +198,12 @@ TEST(ModelChoice, AConfiguredAlternativeOnCleanDataLeavesTheEstimateValid) {
   EXPECT_FALSE(lever->ruled_out) << lever->ruled_out_why;
   EXPECT_LE(std::abs(e.fit.eg_deg_per_g - truth), 3 * e.fit.eg_se_deg_per_g) << c->message;
   EXPECT_LT(std::abs(lever->eg_deg_per_g - e.fit.eg_deg_per_g), e.fit.eg_se_deg_per_g) << c->message;
+  const pipeline::ModelAlternative* gain = Alternative(e, "a_y_gain");
+  ASSERT_NE(gain, nullptr) << c->message;
+  ASSERT_TRUE(gain->fitted) << gain->reason;
+  EXPECT_EQ(gain->parameter, "s [-]");
+  EXPECT_LT(std::abs(gain->scale), 0.02) << c->message;  // the simulated accelerometer has no scale error
+  EXPECT_LT(std::abs(gain->eg_deg_per_g / truth - 1), 0.01) << c->message;
 }
 
 // Catches: a model.alternatives list that cannot be refitted (an unknown name, an effect of the

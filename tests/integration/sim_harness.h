@@ -53,6 +53,7 @@ struct ReplayTweaks {
   double timeout_s = 0;
   int parking_turns = 0;  // simulator: road.parking_turns (tight turns at walking pace)
   std::vector<std::string> alternatives;  // model.alternatives
+  std::vector<config::FormulaSpec> formulas;  // model.formulas
 };
 
 inline std::string TempDir(const std::string& name) {
@@ -79,6 +80,7 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.config = std::make_unique<config::Config>(config::LoadConfig(src + "/config/example_vehicle.yaml"));
   run.config->model_effects = model_effects;
   run.config->model_alternatives = tweaks.alternatives;
+  run.config->model_formulas = tweaks.formulas;
   run.config->identification.yaw_rate_output = tweaks.yaw_rate_output;
   if (tweaks.identify_every_s > 0) run.config->identification.period_s = tweaks.identify_every_s;
   for (config::Role role : {config::Role::kLateralAcceleration, config::Role::kYawRate}) {
