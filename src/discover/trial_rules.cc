@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
+
+#include <Eigen/Dense>
 
 namespace ndsid::discover {
 
@@ -126,13 +129,65 @@ bool KeepsSpeedScale(const Trial& t, bool both) {
   return t.held_out_after <= 1.01 * t.held_out_before && (!both || t.yaw_after <= 1.01 * t.yaw_before);
 }
 
+double ChiSquareQuantileAtZ(int k, double z) {
+  if (k <= 1) return z * z;
+  const double tail = std::erfc(z / std::sqrt(2.0));  // two-sided
+  double lo = 0, hi = 40;  // the one-sided normal quantile with that tail, by bisection
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(mid / std::sqrt(2.0)) > tail ? lo : hi) = mid;
+  }
+  const double c = 2.0 / (9.0 * k), z1 = 0.5 * (lo + hi);
+  return k * std::pow(1.0 - c + z1 * std::sqrt(c), 3);
+}
+
+namespace {
+
+// The joint rule for several parameters (above): "" when their Wald statistic exceeds the
+// quantile, else why not; nullopt when the fit's correlations do not cover them.
+std::optional<std::string> JointlyUndetermined(const std::vector<std::pair<const model::EffectParam*, size_t>>& judged,
+                                               const identify::IdentificationResult& fit, double z) {
+  const size_t np = model::kNumParams + fit.effect_params.size(), k = judged.size();
+  if (fit.correlation.size() != np * np) return std::nullopt;
+  Eigen::VectorXd d(k);
+  Eigen::MatrixXd r(k, k);
+  std::string names;
+  for (size_t a = 0; a < k; ++a) {
+    const identify::ParameterEstimate& e = fit.effect_params[judged[a].second];
+    if (!(e.se > 0)) return std::nullopt;
+    d(a) = (e.value - judged[a].first->neutral) / e.se;
+    for (size_t b = 0; b < k; ++b)
+      r(a, b) = fit.correlation[(model::kNumParams + judged[a].second) * np + model::kNumParams + judged[b].second];
+    names += (a ? ", " : "") + judged[a].first->name;
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(r);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nullopt;
+  const double w = d.dot(ldlt.solve(d)), q = ChiSquareQuantileAtZ(static_cast<int>(k), z);
+  if (std::isfinite(w) && w > q) return std::string();
+  char buf[240];
+  std::snprintf(buf, sizeof buf, "%s are jointly within %.0f sigma of their neutral values (Wald chi-square %.1f, needs > %.1f for %zu; "
+                "not determined)", names.c_str(), z, w, q, k);
+  return std::string(buf);
+}
+
+}  // namespace
+
 std::string UndeterminedParameters(const model::Effect& effect, const identify::IdentificationResult& fit, double z) {
-  std::string out;
+  std::vector<std::pair<const model::EffectParam*, size_t>> judged;  // the parameter, its index in effect_params
   for (const model::EffectParam& p : effect.info().params) {
     if (p.per_drive) continue;
     const auto e = std::find_if(fit.effect_params.begin(), fit.effect_params.end(),
                                 [&](const identify::ParameterEstimate& x) { return x.name == p.name; });
     if (e == fit.effect_params.end() || e->fixed) continue;
+    judged.emplace_back(&p, static_cast<size_t>(e - fit.effect_params.begin()));
+  }
+  if (judged.size() >= 2) {
+    if (const std::optional<std::string> joint = JointlyUndetermined(judged, fit, z)) return *joint;
+  }
+  std::string out;
+  for (const auto& [pp, i] : judged) {
+    const model::EffectParam& p = *pp;
+    const identify::ParameterEstimate* e = &fit.effect_params[i];
     if (std::abs(e->value - p.neutral) > z * e->se) continue;
     char buf[200];
     std::snprintf(buf, sizeof buf, "%s = %.4g +- %.2g %s is within %.0f sigma of %.4g (not determined)", p.name.c_str(), e->value,

@@ -74,10 +74,18 @@ double HeldOutChange(const identify::IdentificationResult& before, const identif
 std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned,
                                double yaw_aligned);
 
-// The determination rule (LadderOptions::determined_z): every parameter of `effect` in `fit` but
-// the per-drive ones lies more than z standard errors from its neutral value. "" when so, else the
-// parameters that do not, in words.
+// The determination rule (LadderOptions::determined_z): the effect's parameters in `fit` (but the
+// per-drive and fixed ones) are told from their neutral values. One parameter: it lies more than z
+// standard errors from its neutral value. Several (a formula with a constant and a speed term):
+// jointly, their Wald statistic d' R^-1 d (d the distances in standard errors, R their
+// correlation) exceeds the chi-square quantile with the tail of z (ChiSquareQuantileAtZ), so a
+// parameter near its neutral value beside a determined one does not reject the effect. "" when
+// so, else the parameters that do not, in words.
 std::string UndeterminedParameters(const model::Effect& effect, const identify::IdentificationResult& fit, double z);
+
+// The chi-square quantile for k degrees of freedom with the tail of a two-sided normal z (z = 3:
+// 0.27 %): z^2 for k = 1, else Wilson-Hilferty (within 1.5 % of the exact quantile for k = 2).
+double ChiSquareQuantileAtZ(int k, double z);
 
 // The plausibility rule: no parameter of `effect` in `fit` (but the per-drive and fixed ones)
 // ended on its box. The box is the physically plausible range: a parameter the data push onto its

@@ -7,6 +7,7 @@
 
 #include "ndsid/discover/diagnosis.h"
 #include "synthetic_segments.h"
+#include "trial_rules.h"
 
 namespace ndsid::testing {
 namespace {
@@ -82,6 +83,44 @@ TEST(PlausibilityRule, AnEffectOnItsBoundIsNotAdded) {
     EXPECT_LT(trial->held_out_after, trial->held_out_before) << trial->why;  // the error falls, the value is implausible
     EXPECT_NE(trial->why.find("on its bound"), std::string::npos) << trial->why;
   }
+}
+
+// Catches: a formula with a constant and a speed term (rear steering, c0 + c2 (v/30)^2) rejected
+// because its small constant alone lies within 3 sigma of 0 while the pair is determined many
+// times over (its refit explained 29 % of the held-out error of a hidden rear steering); and a
+// pair near neutral passing. The one-parameter rule is unchanged.
+TEST(DeterminationRule, SeveralParametersAreJudgedJointly) {
+  const config::Config c = config::ParseConfig(std::string(kMinimalVehicleYaml) + R"yaml(model:
+  formulas:
+    rear_steer:
+      alpha_h: "(c0 + c2*(v/30)^2)*d_sw/is"
+      parameters: {c0: {min: -0.3, max: 0.3}, c2: {min: -0.5, max: 0.5}}
+    single:
+      alpha_h: "c*d_sw/is"
+      parameters: {c: {min: -0.3, max: 0.3}}
+)yaml", "t.yaml");
+  const model::EffectLibrary library(c.model_formulas);
+  identify::IdentificationResult fit;
+  fit.effect_params = {{.name = "c0", .unit = "-", .value = 0.07, .se = 0.061}, {.name = "c2", .unit = "-", .value = -0.073, .se = 0.0097}};
+  const size_t np = model::kNumParams + 2;
+  fit.correlation.assign(np * np, 0.0);
+  for (size_t i = 0; i < np; ++i) fit.correlation[i * np + i] = 1.0;
+  fit.correlation[(np - 2) * np + np - 1] = fit.correlation[(np - 1) * np + np - 2] = -0.6;
+  EXPECT_EQ(discover::UndeterminedParameters(*library.Find("rear_steer"), fit, 3.0), "");
+  fit.effect_params[1].value = -0.012;  // 1.2 sigma: together with c0's 1.1 sigma, not determined
+  const std::string why = discover::UndeterminedParameters(*library.Find("rear_steer"), fit, 3.0);
+  EXPECT_NE(why.find("c0, c2 are jointly within 3 sigma"), std::string::npos) << why;
+  // One parameter: each on its own, as before.
+  identify::IdentificationResult one;
+  one.effect_params = {{.name = "c", .unit = "-", .value = 0.07, .se = 0.061}};
+  EXPECT_NE(discover::UndeterminedParameters(*library.Find("single"), one, 3.0).find("c = 0.07"), std::string::npos);
+  one.effect_params[0].value = 0.2;
+  EXPECT_EQ(discover::UndeterminedParameters(*library.Find("single"), one, 3.0), "");
+  // The quantiles: z^2 for one degree of freedom; the chi-square 0.9973 quantiles 11.83 and 14.16
+  // for two and three within 1.5 %.
+  EXPECT_DOUBLE_EQ(discover::ChiSquareQuantileAtZ(1, 3.0), 9.0);
+  EXPECT_NEAR(discover::ChiSquareQuantileAtZ(2, 3.0), 11.83, 0.015 * 11.83);
+  EXPECT_NEAR(discover::ChiSquareQuantileAtZ(3, 3.0), 14.16, 0.015 * 14.16);
 }
 
 }  // namespace
