@@ -50,6 +50,10 @@ const std::vector<EffectInfo>& EffectTable() {
       {"steer_asymmetry_pct", "%",
        "steering unequal left and right (outside the model library): the road wheels follow d_sw (1 + k sgn d_sw)",
        "+-5", &SimEffects::steer_asymmetry_pct},
+      {"rear_steer_pct", "%",
+       "active rear steering (a chassis system outside the model library): the rear wheels steer "
+       "delta_h = k ((v / 30 m/s)^2 - 1/4) delta, against the front below 15 m/s, with it above; k here",
+       "10..30", &SimEffects::rear_steer_pct},
       {"relaxation_length_m", "m", "tyre relaxation: slip angle lags with tau = sigma/v", "0.3..1",
        &SimEffects::relaxation_length_m},
       {"steer_delay_ms", "ms", "steering message carries d_sw from dt earlier than the accelerometer", "20..150",
@@ -385,6 +389,7 @@ void ValidateSimulationConfig(const SimulationConfig& c) {
           "effects.rear_stiffness_speed_pct in [-50, 200] %");
   require(e.steer_deadband_deg >= -30.0 && e.steer_deadband_deg <= 30.0, "effects.steer_deadband_deg in [-30, 30] deg");
   require(e.steer_asymmetry_pct >= -30.0 && e.steer_asymmetry_pct <= 30.0, "effects.steer_asymmetry_pct in [-30, 30] %");
+  require(e.rear_steer_pct >= -100.0 && e.rear_steer_pct <= 100.0, "effects.rear_steer_pct in [-100, 100] %");
   require(e.steer_delay_ms >= 0.0 && e.steer_delay_ms <= 1000.0, "effects.steer_delay_ms in [0, 1000] ms");
   require(e.roll_frequency_hz > 0.2 && e.roll_frequency_hz < 10.0, "effects.roll_frequency_hz in (0.2, 10) Hz");
   require(e.roll_damping_ratio > 0.05 && e.roll_damping_ratio < 3.0, "effects.roll_damping_ratio in (0.05, 3)");

@@ -32,11 +32,17 @@ OutsideLibrary Judge(const GainView& view, const std::string& output, bool yaw) 
   if (view.speed_dependent.at(0)) {
     o.signature = "gain changes with speed";
     o.text = "not one of my effects: the " + output + " error behaves like a gain that changes with speed (" + gains +
-             "; * flagged): a tyre, compliance or aero property that depends on speed. A formula that states one, "
-             "the rear axle's stiffness growing or falling with v^2 (try alpha_v for the front axle):";
+             "; * flagged): a tyre, compliance or aero property that depends on speed, or a chassis system that "
+             "steers the rear axle by a gain that changes with speed. The formulas that state either, the rear axle's "
+             "stiffness growing or falling with v^2 (try alpha_v for the front axle) and the rear wheels steered "
+             "with the front, against it at low speed and with it at high speed; list both as hypotheses "
+             "(--candidates +stiffness_with_speed,+rear_steer_with_speed) and the ladder keeps the one the held-out "
+             "drives confirm:";
     o.formula_template =
         "model:\n  formulas:\n    stiffness_with_speed:\n      alpha_h: \"k*(v/30)^2*alpha_h\"\n"
-        "      parameters:\n        k: {min: -0.6, max: 0.6}\n";
+        "      parameters:\n        k: {min: -0.6, max: 0.6}\n"
+        "    rear_steer_with_speed:\n      alpha_h: \"(c0 + c2*(v/30)^2)*d_sw/is\"\n"
+        "      parameters:\n        c0: {min: -0.3, max: 0.3}\n        c2: {min: -0.5, max: 0.5}\n";
   } else if (flagged >= 2 && (positive == 0 || positive == flagged)) {
     o.signature = "gain at every speed";
     o.text = "the " + output + " error behaves like one gain at every speed (" + gains + "; * flagged): a scale of " +

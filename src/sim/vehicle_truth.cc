@@ -9,6 +9,7 @@ using model::kGravity_mps2;
 
 namespace {
 constexpr double kDownforceSpeed_mps = 30.0;  // rear_stiffness_speed_pct is the rise at this speed
+constexpr double kRearSteerSpeed_mps = 30.0;   // rear_steer_pct: delta_h / delta at this speed, less 1/4
 }  // namespace
 
 VehicleTruth::VehicleTruth(const model::Params<double>& params, double wheelbase_m, const config::SimEffects& effects,
@@ -41,14 +42,23 @@ double VehicleTruth::Linkage(double steer_sw_rad) const {
   return d * (1.0 + 0.01 * fx_.steer_asymmetry_pct * (d > 0 ? 1.0 : d < 0 ? -1.0 : 0.0));
 }
 
+double VehicleTruth::RearSteer(double steer_sw_rad, double v) const {
+  // Active rear steering outside the model library: counter-phase at low speed (agility), in
+  // phase at high speed (stability), crossing at 15 m/s.
+  if (fx_.rear_steer_pct == 0.0) return 0.0;
+  const double x = v / kRearSteerSpeed_mps;
+  return 0.01 * fx_.rear_steer_pct * (x * x - 0.25) * Linkage(steer_sw_rad) / p_.is;
+}
+
 double VehicleTruth::KinematicYawRate(double steer_sw_rad, double v) const {
-  return v * (Linkage(steer_sw_rad) / p_.is) / (l_ + eg_ * v * v);
+  return v * (Linkage(steer_sw_rad) / p_.is - RearSteer(steer_sw_rad, v)) / (l_ + eg_ * v * v);
 }
 
 double VehicleTruth::KinematicSideSlip(double steer_sw_rad, double v) const {
-  // Steady state of the linear model: beta = (r/v) (lh - m v^2 lv / (l ch)); finite at v = 0.
-  const double r_over_v = (Linkage(steer_sw_rad) / p_.is) / (l_ + eg_ * v * v);
-  return r_over_v * ((l_ - p_.lv) - p_.m * v * v * p_.lv / (l_ * p_.ch));
+  // Steady state of the linear model: beta = delta_h + (r/v) (lh - m v^2 lv / (l ch)); finite at v = 0.
+  const double d_h = RearSteer(steer_sw_rad, v);
+  const double r_over_v = (Linkage(steer_sw_rad) / p_.is - d_h) / (l_ + eg_ * v * v);
+  return d_h + r_over_v * ((l_ - p_.lv) - p_.m * v * v * p_.lv / (l_ * p_.ch));
 }
 
 TruthState VehicleTruth::Derivative(const TruthState& x, const TruthInputs& u, TruthOutputs* out) const {
@@ -56,7 +66,8 @@ TruthState VehicleTruth::Derivative(const TruthState& x, const TruthInputs& u, T
   // output is blended with the kinematic model, so the floor never shows in the truth.
   const double v_d = std::max(std::fabs(u.speed_mps), v_lo_);
   const model::State<double> xs{x.beta, x.r};
-  const model::AxleSlip<double> slip = model::SlipAngles(p_, l_, xs, Linkage(u.steer_sw_rad), v_d);
+  model::AxleSlip<double> slip = model::SlipAngles(p_, l_, xs, Linkage(u.steer_sw_rad), v_d);
+  slip.rear += RearSteer(u.steer_sw_rad, v_d);  // alpha_h = delta_h - beta + lh r/v
   TruthState dx{};
   double a_f = slip.front, a_r = slip.rear;
   if (fx_.relaxation_length_m > 0.0) {  // alpha_l' = (alpha - alpha_l) v / sigma

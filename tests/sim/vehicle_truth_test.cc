@@ -208,5 +208,31 @@ TEST(VehicleTruth, SteeringPlayAndUnequalSidesActOnTheRoadWheels) {
   }
 }
 
+// Catches: active rear steering with the wrong sign, the wrong speed law, or only in one of the
+// blended models. In steady state the linear single-track model with rear steer turns as the
+// plain one does with delta - delta_h: the same a_y at the same speed.
+TEST(VehicleTruth, RearSteeringTurnsLikeTheFrontLessTheRear) {
+  const auto cfg = Cmax();
+  const auto p = BaseParams(cfg.vehicle);
+  const double l = cfg.vehicle.wheelbase_m;
+  const VehicleTruth plain(p, l, cfg.effects, cfg.integration);
+  config::SimEffects fx = cfg.effects;
+  fx.rear_steer_pct = 20.0;
+  const VehicleTruth ars(p, l, fx, cfg.integration);
+  EXPECT_DOUBLE_EQ(plain.RearSteer(0.3, 30.0), 0.0);
+  EXPECT_NEAR(ars.RearSteer(0.3, 30.0), 0.2 * 0.75 * 0.3 / p.is, 1e-15);   // with the front at 30 m/s
+  EXPECT_NEAR(ars.RearSteer(0.3, 15.0), 0.0, 1e-15);                       // crossing at 15 m/s
+  EXPECT_LT(ars.RearSteer(0.3, 5.0), 0.0);                                 // against it at walking pace
+  for (double v : {2.0, 10.0, 25.0}) {
+    const double ratio = 0.2 * ((v / 30) * (v / 30) - 0.25);  // delta_h / delta
+    for (double steer : {0.4, -0.4}) {
+      TruthState x0, x1;
+      const double with_ars = SettleAt(ars, x0, {steer, v, 0.0}).a_y;
+      const double equivalent = SettleAt(plain, x1, {steer * (1 - ratio), v, 0.0}).a_y;
+      EXPECT_NEAR(with_ars, equivalent, 1e-9 + 1e-7 * std::fabs(equivalent)) << v << " m/s, " << steer;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ndsid::sim

@@ -25,6 +25,7 @@ struct SimEffects {
   double rear_stiffness_speed_pct = 0.0;  // ch(v) = ch (1 + k (v/30 m/s)^2), k * 100 (not in the model library)
   double steer_deadband_deg = 0.0;       // on-centre free play at the wheel: the road wheels see d_sw - clip(d_sw, -b, b) (not in the model library)
   double steer_asymmetry_pct = 0.0;      // the road wheels see d_sw (1 + k sgn d_sw), k * 100: left/right unequal (not in the model library)
+  double rear_steer_pct = 0.0;           // active rear steering: delta_h = k ((v/30)^2 - 1/4) delta, k * 100 (not in the model library)
   double relaxation_length_m = 0.0;      // slip-angle lag alpha_l' = (alpha - alpha_l) * v/sigma
   double steer_delay_ms = 0.0;           // the steering message carries d_sw(t - dt)
   double speed_scale_pct = 0.0;          // v_meas = (1 + eps) * v (wheel speeds and odometer too)

@@ -51,7 +51,10 @@ class VehicleTruth {
   // The steering-wheel angle the road wheels follow (steer_deadband_deg, steer_asymmetry_pct;
   // d_sw itself without them). Every use of the steering below goes through it.
   double Linkage(double steer_sw_rad) const;
-  // Kinematic limit (steady state of the linear model): r = v*delta/(l + EG v^2).
+  // The rear axle's steering angle (rear_steer_pct; 0 without it) at the road wheels, positive
+  // with the front's: against it below 15 m/s, with it above.
+  double RearSteer(double steer_sw_rad, double speed_mps) const;
+  // Kinematic limit (steady state of the linear model): r = v*(delta - delta_h)/(l + EG v^2).
   double KinematicYawRate(double steer_sw_rad, double speed_mps) const;
   double KinematicSideSlip(double steer_sw_rad, double speed_mps) const;
   // Smoothstep weight of the dynamic model, 0 below kinematic_below_mps, 1 above dynamic_above_mps.
