@@ -11,6 +11,7 @@
 
 #include "ndsid/common/json_codec.h"
 #include "ndsid/pipeline/estimate_codec.h"
+#include "../identify/synthetic_segments.h"
 #include "sim_harness.h"
 
 namespace ndsid::testing {
@@ -170,14 +171,7 @@ TEST(ModelChoice, AConfiguredAlternativeThatMovesEgWidensSigma) {
 TEST(ModelChoice, AConfiguredAlternativeOnCleanDataLeavesTheEstimateValid) {
   ReplayTweaks tweaks = kTwoOutputs;
   tweaks.alternatives = {"lever_arm", "a_y_gain"};
-  tweaks.formulas = config::ParseConfig(R"yaml(vehicle: {name: t, wheelbase_m: 2.648, mass_kg: 1900}
-source: {type: log, logs: [x.log]}
-dbc: x.dbc
-signals:
-  steering_wheel_angle: {message: A, signal: B, unit: deg}
-  vehicle_speed: {message: A, signal: C, unit: km/h}
-  lateral_acceleration: {message: A, signal: D, unit: m/s^2}
-model:
+  tweaks.formulas = config::ParseConfig(std::string(kMinimalVehicleYaml) + R"yaml(model:
   formulas:
     a_y_gain:
       a_y_meas: "a_y*(1 + s)"
