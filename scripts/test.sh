@@ -12,7 +12,7 @@
 # With clang present it also builds the fuzz targets (build-fuzz/, scripts/fuzz.sh --build), so
 # the label "fuzz" runs each for 20 s (docs/reliability.md); NDSID_SKIP_FUZZ=1 leaves that out.
 # NDSID_SKIP_ARM64=1 leaves the arm64 part out (it installs the cross compiler and qemu-user,
-# downloads the arm64 sysroot once, and takes about 15 min on 2 cores from an empty compiler cache).
+# downloads the arm64 sysroot once, and takes about 12 min on 2 cores from an empty compiler cache).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$here/scripts/setup.sh"
