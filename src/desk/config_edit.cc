@@ -38,16 +38,16 @@ std::string SetModelEffects(const std::string& yaml_text, const std::vector<std:
   return SetModelList(yaml_text, "effects", effects, path, description);
 }
 
-std::string SetModelList(const std::string& yaml_text, const std::string& key, const std::vector<std::string>& effects,
+std::string SetModelList(const std::string& yaml_text, const std::string& key, const std::vector<std::string>& names,
                          const std::string& path, std::string* description) {
   std::vector<std::string> lines = Lines(yaml_text);
   const auto& strip_comment = StripComment;
   const auto& trim = Trim;
-  const std::string list = JoinEffects(effects);
+  const std::string list = JoinEffects(names);
   std::string old_list = "[]";
   std::string what;
   static const std::regex kModel(R"(^model\s*:(.*)$)");
-  const std::regex kEffects("^(\\s+)" + key + "\\s*:(.*)$");
+  const std::regex kKey("^(\\s+)" + key + "\\s*:(.*)$");
   const std::string entry = "  " + key + ": " + list;
   std::smatch m;
   size_t model_line = lines.size();
@@ -68,18 +68,18 @@ std::string SetModelList(const std::string& yaml_text, const std::string& key, c
     what = "rewrote the one-line model section at line " + std::to_string(model_line + 1);
   } else {
     size_t end = model_line + 1;
-    size_t effects_line = lines.size();
+    size_t key_line = lines.size();
     for (; end < lines.size(); ++end) {
       const std::string& l = lines[end];
       const std::string t = trim(l);
       if (!t.empty() && t[0] != '#' && l[0] != ' ' && l[0] != '\t') break;  // next top-level key
-      if (effects_line == lines.size() && std::regex_match(l, m, kEffects)) effects_line = end;
+      if (key_line == lines.size() && std::regex_match(l, m, kKey)) key_line = end;
     }
-    if (effects_line == lines.size()) {
+    if (key_line == lines.size()) {
       lines.insert(lines.begin() + static_cast<long>(model_line) + 1, entry);
       what = "added model." + key + " at line " + std::to_string(model_line + 2);
     } else {
-      std::regex_match(lines[effects_line], m, kEffects);
+      std::regex_match(lines[key_line], m, kKey);
       const std::string indent = m[1].str();
       const std::string value = m[2].str();
       const std::string v = trim(strip_comment(value));
@@ -88,24 +88,24 @@ std::string SetModelList(const std::string& yaml_text, const std::string& key, c
         old_list = v;
       } else {  // block sequence below: "- name" lines, removed
         std::vector<std::string> old;
-        while (effects_line + 1 < lines.size()) {
-          const std::string t = trim(lines[effects_line + 1]);
+        while (key_line + 1 < lines.size()) {
+          const std::string t = trim(lines[key_line + 1]);
           if (t.rfind("- ", 0) != 0 && t != "-") break;
           old.push_back(trim(strip_comment(t.substr(1))));
-          lines.erase(lines.begin() + static_cast<long>(effects_line) + 1);
+          lines.erase(lines.begin() + static_cast<long>(key_line) + 1);
         }
         old_list = JoinEffects(old);
       }
-      const size_t pad = std::max<size_t>(1, 28 - std::min<size_t>(28, indent.size() + 9 + list.size()));
-      lines[effects_line] = indent + key + ": " + list + (comment.empty() ? "" : std::string(pad, ' ') + trim(comment));
-      what = "line " + std::to_string(effects_line + 1);
+      const size_t pad = std::max<size_t>(1, 28 - std::min<size_t>(28, indent.size() + key.size() + 2 + list.size()));
+      lines[key_line] = indent + key + ": " + list + (comment.empty() ? "" : std::string(pad, ' ') + trim(comment));
+      what = "line " + std::to_string(key_line + 1);
     }
   }
   std::string out;
   for (const auto& l : lines) out += l + "\n";
   const config::Config parsed = config::ParseConfig(out, path);
   const std::vector<std::string>& got = key == "effects" ? parsed.model_effects : parsed.model_alternatives;
-  if (got != effects) {
+  if (got != names) {
     throw ConfigError(path + ": editing model." + key + " did not give " + list + " (got " + JoinEffects(got) + ")");
   }
   if (key != "effects" && parsed.model_effects != config::ParseConfig(yaml_text, path).model_effects)

@@ -303,11 +303,9 @@ std::string ErrorLadder::StopReason(int tried) const {
 
 void ErrorLadder::Judge() {
   ladder_.eg_unsettled = DescribeUnsettledEg(ladder_, options_);
-  for (const Trial& t : ladder_.trials) {
-    const std::vector<std::string>& u = ladder_.eg_unsettled_effects;
-    if (LeavesEgUnsettled(t, static_cast<int>(ladder_.rungs.size()) - 1, options_) && std::find(u.begin(), u.end(), t.effect) == u.end())
-      ladder_.eg_unsettled_effects.push_back(t.effect);
-  }
+  std::vector<std::string>& unsettled = ladder_.eg_unsettled_effects;
+  for (const Trial* t : TrialsLeavingEgUnsettled(ladder_, options_))
+    if (std::find(unsettled.begin(), unsettled.end(), t->effect) == unsettled.end()) unsettled.push_back(t->effect);
   if (!ladder_.eg_unsettled.empty()) spdlog::warn("ladder: {}", ladder_.eg_unsettled);
   const identify::SegmentList& judged = validation_.empty() ? training_ : validation_;
   ladder_.verdicts = JudgeOutputs(current_, fit_.AllValues(), judged, fit_.yaw_rate_output, options_.unexplained_ratio,

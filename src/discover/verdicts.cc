@@ -96,11 +96,18 @@ bool LeavesEgUnsettled(const Trial& t, int final_step, const LadderOptions& opti
   return !(std::abs(t.eg_shift_rel) <= options.eg_relevant_shift_rel || std::abs(t.eg_shift_sigma) <= options.eg_unsettled_sigma);
 }
 
+std::vector<const Trial*> TrialsLeavingEgUnsettled(const Ladder& ladder, const LadderOptions& options) {
+  std::vector<const Trial*> out;
+  const int final_step = static_cast<int>(ladder.rungs.size()) - 1;
+  for (const Trial& t : ladder.trials)
+    if (LeavesEgUnsettled(t, final_step, options)) out.push_back(&t);
+  return out;
+}
+
 std::string DescribeUnsettledEg(const Ladder& ladder, const LadderOptions& options) {
   std::string moves;
-  const int final_step = static_cast<int>(ladder.rungs.size()) - 1;
-  for (const Trial& t : ladder.trials) {
-    if (!LeavesEgUnsettled(t, final_step, options)) continue;
+  for (const Trial* tp : TrialsLeavingEgUnsettled(ladder, options)) {
+    const Trial& t = *tp;
     char part[200];
     std::snprintf(part, sizeof part, "%s%s moves it %+.2f %% (%+.1f sigma; held-out RMSE %+.1f %%)", moves.empty() ? "" : ", ",
                   t.effect.c_str(), 100 * t.eg_shift_rel, t.eg_shift_sigma, 100 * (t.held_out_after / t.held_out_before - 1));

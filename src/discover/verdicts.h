@@ -14,6 +14,9 @@ namespace ndsid::discover {
 // fitted output's held-out RMSE by more than eg_unsettled_rmse_ratio.
 bool LeavesEgUnsettled(const Trial& t, int final_step, const LadderOptions& options);
 
+// The trials of the ladder's final rung that leave EG unsettled (LeavesEgUnsettled), in order.
+std::vector<const Trial*> TrialsLeavingEgUnsettled(const Ladder& ladder, const LadderOptions& options);
+
 // Ladder::eg_unsettled: "" when no refit of the final rung leaves EG unsettled, else which do and
 // by how much. (When the step limit ended the ladder, nothing was refitted on the final model.)
 std::string DescribeUnsettledEg(const Ladder& ladder, const LadderOptions& options);

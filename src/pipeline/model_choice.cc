@@ -237,7 +237,7 @@ ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const W
                                  const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
                                  double track_rear_m, const std::vector<std::string>& configured) {
   ModelChoice choice;
-  if (!fit.valid) return choice;
+  if (!fit.valid || (!fit.yaw_rate_output && configured.empty())) return choice;  // nothing to refit
   const auto t0 = std::chrono::steady_clock::now();
   choice.wheel_yaw = WheelEvidence(snap.AllSegments(), track_rear_m);
   const double own = PredictedWheelScale(EffectValue(fit, "gyro_scale"), EffectValue(fit, "speed_scale"));

@@ -89,13 +89,13 @@ inline constexpr double kWheelEvidenceZ = 3.0;           // |s_measured - s_pred
 // the fit's sigma says, and the spread covers it.
 inline constexpr const char* kHeldSuffix = "_at_wheels";
 
-// Whether the window's kinematics check shows a significant scale disagreement for a fit with
-// the yaw rate as an output (the gain and its se from `data_checks`' window-level kinematics).
 // model.alternatives against the model: each a library or formula effect, not in model.effects,
 // listed once, and compatible with the model's effects (no parameter shared). Throws ConfigError.
 void CheckAlternatives(const std::vector<std::string>& alternatives, const std::vector<std::string>& effects,
                        const model::EffectLibrary& library);
 
+// Whether the window's kinematics check shows a significant scale disagreement for a fit with
+// the yaw rate as an output (the gain and its se from `data_checks`' window-level kinematics).
 bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
                        double* gain = nullptr, double* gain_se = nullptr);
 
