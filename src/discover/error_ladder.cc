@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <set>
 
 #include "ndsid/identify/chunks.h"
 #include "scoring_model.h"
@@ -16,6 +17,10 @@ using identify::IdentificationResult;
 using identify::Identifier;
 
 namespace {
+
+// A refit further than this share of the stops' mean from it (and 3 of their standard errors)
+// contradicts them (ErrorLadder::JudgingPriors).
+constexpr double kStopsRelativeTolerance = 0.2;
 
 // Why a refitted candidate was added or rejected (Trial::why); t carries its numbers.
 std::string ExplainTrial(const Trial& t, bool better, bool both, bool eg_moves, const std::string& contradicts,
@@ -63,18 +68,22 @@ ErrorLadder::ErrorLadder(const config::IdentificationConfig& config, double whee
 Ladder ErrorLadder::Climb() {
   FitStartingModel();
   if (StartingFitFailed()) {
-    ladder_.rungs.push_back({current_.spec().Describe(), "", fit_, 0.0});
+    ladder_.rungs.push_back({current_.spec().Describe(), "", fit_, 0.0, ""});
     ladder_.stop_reason = "the starting model could not be fitted: " + fit_.reason;
+    ladder_.final_effects = effects_;
     return std::move(ladder_);
   }
   if (options_.align) AlignInTime();
-  ladder_.rungs.push_back({current_.spec().Describe(), "", fit_, 0.0});
+  ladder_.rungs.push_back({current_.spec().Describe(), "", fit_, 0.0, ""});
   if (look_alike_) AddLookAlikeThenAlign();
   TrySpeedScaleFirst();
   for (int step = 0; !StepLimitReached(step); ++step) {
     if (!ClimbOneRung()) break;
   }
   if (ladder_.stop_reason.empty()) ladder_.stop_reason = "step limit reached";
+  TryStandstillEvidence();
+  PruneUndetermined();
+  ladder_.final_effects = effects_;
   Judge();
   return std::move(ladder_);
 }
@@ -94,11 +103,8 @@ void ErrorLadder::TrySpeedScaleFirst() {
   if (!sse.available || has_speed_prior) return;
   const double sd = sse.prior_sd;
   ladder_config_.priors.push_back({"speed_scale", sse.scale, sd, "the speed signal against a_x (ndsid diagnose)"});
-  const auto& cands = options_.diagnosis.candidates;
-  const bool candidate = cands.empty() || options_.diagnosis.candidates_extend_library ||
-                         std::find(cands.begin(), cands.end(), "speed_scale") != cands.end();
   const bool in_model = std::find(effects_.begin(), effects_.end(), "speed_scale") != effects_.end();
-  if (!candidate || in_model || !library_.Find("speed_scale") || !(std::abs(sse.scale) > options_.speed_scale_add_sigma * sd)) return;
+  if (!IsCandidate("speed_scale") || in_model || !library_.Find("speed_scale") || !(std::abs(sse.scale) > options_.speed_scale_add_sigma * sd)) return;
   std::vector<std::string> trial = effects_;
   trial.push_back("speed_scale");
   const Refit r = RefitWith(trial);
@@ -115,7 +121,7 @@ void ErrorLadder::TrySpeedScaleFirst() {
     const bool both = fit_.yaw_rate_output && f2.yaw_rate_output;
     if (both) t.yaw_before = HeldOutYawRmse(fit_), t.yaw_after = HeldOutYawRmse(f2);
     RecordEgShift(t, fit_, f2);
-    t.accepted = KeepsSpeedScale(t, both);
+    t.accepted = HeldOutHolds(t, both);
     char yaw[48] = "";
     if (both) std::snprintf(yaw, sizeof yaw, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
     std::snprintf(why, sizeof why,
@@ -127,6 +133,113 @@ void ErrorLadder::TrySpeedScaleFirst() {
   spdlog::info("ladder: + speed_scale: {}", t.why);
   ladder_.trials.push_back(t);
   if (t.accepted) AddRung(r, "speed_scale", 0.0);
+}
+
+// The standstill evidence (docs/two-outputs.md, "Standstill evidence"): the stops' mean a_y and
+// yaw rate read the accelerometer's bias and the gyro's offset, which the driving data may not
+// tell from an effect already in the model. With road_bank a steering offset d0 absorbs an a_y
+// bias b: the model fits d0 - is EG b and explains both outputs as well as the truth does, so no
+// refit with accel_bias lowers a held-out error and its score, the stops' alone, may stay below
+// the ranking's threshold. After the climb, each such effect the model lacks whose parameter the
+// stops determine (their mean more than determined_z of its standard error from 0) and the model's
+// parameters absorb is refitted (Identify takes the stops as a prior) and added unless a held-out
+// RMSE rises by more than 1 %, its parameter is undetermined or implausible, or the refit lands
+// more than 3 standard errors from the stops' value (then the stops read something else: a car
+// parked on a slope).
+void ErrorLadder::TryStandstillEvidence() {
+  std::optional<Diagnosis> diagnosis;  // the final model's, made once some stops qualify
+  for (const Identifier::StandstillPrior& sp : TrainingStandstillPriors()) {
+    const std::string& effect = sp.effect;
+    const bool in_model = std::any_of(effects_.begin(), effects_.end(),
+                                      [&](const std::string& e) { return SharesParameter(library_, e, effect); });
+    if (in_model || !library_.Find(effect) || !IsCandidate(effect) || !(std::abs(sp.value) > options_.determined_z * sp.sd)) continue;
+    // Only where the driving data cannot tell it from the model's own parameters (ScoreCandidate's
+    // uniqueness below kConfoundedUniqueness): elsewhere the ranking has judged it already.
+    if (!diagnosis) diagnosis = Diagnose(current_, fit_.AllValues(), training_, options_.diagnosis);
+    const auto scored = std::find_if(diagnosis->ranked.begin(), diagnosis->ranked.end(),
+                                     [&](const CandidateScore& c) { return c.effect == effect; });
+    if (scored == diagnosis->ranked.end() || !(scored->uniqueness < kConfoundedUniqueness)) continue;
+    const Refit r = RefitWith(EffectsWith(effect));
+    Trial t;
+    t.step = static_cast<int>(ladder_.rungs.size()) - 1;
+    t.effect = effect;
+    t.held_out_before = HeldOutRmse(fit_);
+    char evidence[160];
+    std::snprintf(evidence, sizeof evidence, "standstill evidence: %.4g +- %.2g %s over %zu stops", sp.value, sp.sd,
+                  library_.Get(effect)->info().params[0].unit.c_str(), sp.stops);
+    if (!r.fit.valid) {
+      t.why = std::string("rejected (") + evidence + "): fit not valid: " + r.fit.reason;
+    } else {
+      const bool both = BothOutputsScored(fit_, r.fit);
+      t.held_out_after = HeldOutRmse(r.fit);
+      if (both) t.yaw_before = HeldOutYawRmse(fit_), t.yaw_after = HeldOutYawRmse(r.fit);
+      RecordEgShift(t, fit_, r.fit);
+      const std::string implausible = ImplausibleParameters(*library_.Get(effect), r.fit, options_.determined_z);
+      double fitted = sp.value;
+      for (const auto& p : r.fit.effect_params)
+        if (p.name == sp.param) fitted = p.value;
+      const bool agrees = std::abs(fitted - sp.value) <= 3 * sp.sd;
+      t.accepted = HeldOutHolds(t, both) && implausible.empty() && agrees;
+      char yaw[48] = "", why[320];
+      if (both) std::snprintf(yaw, sizeof yaw, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
+      std::snprintf(why, sizeof why, "%s (%s): refit %.4g; held-out RMSE %+.1f %%%s; EG %+.2f %% (%+.1f sigma)",
+                    t.accepted ? "added" : "rejected", evidence, fitted, 100 * (t.held_out_after / t.held_out_before - 1), yaw,
+                    100 * t.eg_shift_rel, t.eg_shift_sigma);
+      t.why = why;
+      if (!agrees) t.why += "; the refit contradicts the stops";
+      if (!implausible.empty()) t.why += "; " + implausible;
+    }
+    spdlog::info("ladder: + {}: {}", effect, t.why);
+    ladder_.trials.push_back(t);
+    if (t.accepted) AddRung(r, effect, DeltaBic(fit_, r.fit, BothOutputsScored(fit_, r.fit)).delta);
+  }
+}
+
+// After the climb: an effect the ladder added whose parameters a later one has left undetermined
+// or on a bound (a crossfall added before the steering offset and the bias it stood in for) is
+// taken out again when the refit without it raises no held-out RMSE by more than 1 %; the newest
+// first, once each.
+void ErrorLadder::PruneUndetermined() {
+  std::vector<std::string> added;
+  for (size_t i = 1; i < ladder_.rungs.size(); ++i)
+    if (!ladder_.rungs[i].added.empty()) added.push_back(ladder_.rungs[i].added);
+  for (auto it = added.rbegin(); it != added.rend(); ++it) {
+    const std::string effect = *it;
+    const std::string undetermined = ImplausibleParameters(*library_.Get(effect), fit_, options_.determined_z);
+    if (undetermined.empty() || std::find(effects_.begin(), effects_.end(), effect) == effects_.end()) continue;
+    std::vector<std::string> without;
+    for (const std::string& e : effects_)
+      if (e != effect) without.push_back(e);
+    const Refit r = RefitWith(without);
+    Trial t;
+    t.step = static_cast<int>(ladder_.rungs.size()) - 1;
+    t.effect = effect;
+    t.removal = true;
+    t.held_out_before = HeldOutRmse(fit_);
+    if (!r.fit.valid) {
+      t.why = "kept although " + undetermined + ": the fit without it is not valid: " + r.fit.reason;
+    } else {
+      const bool both = BothOutputsScored(fit_, r.fit);
+      t.held_out_after = HeldOutRmse(r.fit);
+      if (both) t.yaw_before = HeldOutYawRmse(fit_), t.yaw_after = HeldOutYawRmse(r.fit);
+      RecordEgShift(t, fit_, r.fit);
+      t.accepted = HeldOutHolds(t, both);
+      char yaw[48] = "", why[200];
+      if (both) std::snprintf(yaw, sizeof yaw, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
+      std::snprintf(why, sizeof why, "without it: held-out RMSE %+.1f %%%s; EG %+.2f %% (%+.1f sigma)",
+                    100 * (t.held_out_after / t.held_out_before - 1), yaw, 100 * t.eg_shift_rel, t.eg_shift_sigma);
+      t.why = (t.accepted ? "taken out again (" : "kept although (") + undetermined + "): " + why;
+    }
+    spdlog::info("ladder: - {}: {}", effect, t.why);
+    ladder_.trials.push_back(t);
+    if (!t.accepted) continue;
+    effects_ = r.effects;
+    current_ = r.model;
+    fit_ = r.fit;
+    current_.set_drive_values(fit_.drive_values);
+    const double dbic = DeltaBic(ladder_.rungs.back().fit, fit_, BothOutputsScored(ladder_.rungs.back().fit, fit_)).delta;
+    ladder_.rungs.push_back({current_.spec().Describe(), "", fit_, dbic, effect});
+  }
 }
 
 bool ErrorLadder::ClimbOneRung() {
@@ -192,6 +305,38 @@ bool ErrorLadder::IsTried(const CandidateScore& c, const Diagnosis& diagnosis, i
   return (c.significant || large || first || hypothesis) && tried < most;
 }
 
+std::vector<Identifier::StandstillPrior> ErrorLadder::TrainingStandstillPriors() const {
+  std::set<int64_t> drives;
+  for (const stats::Segment* s : training_) drives.insert(s->drive_id);
+  return Identifier::StandstillPriors(options_.standstill, drives);
+}
+
+// The configured priors, the speed scale's from a_x, and the stops' (as Identify uses them on
+// the training drives), for PriorContradiction on a refit with `effect`: a candidate whose refit
+// lands far from what the stops read stands in for another effect (an a_y bias taking up a
+// steering offset). Far: more than 3 of the stops' standard errors and more than a fifth of their
+// mean. The stops' standard error alone can be far smaller than what the rest of a model that
+// still lacks an effect pulls a real one by (a gyro offset beside a steering offset not yet
+// added), which is no contradiction.
+std::vector<config::ParameterPrior> ErrorLadder::JudgingPriors(const std::string& effect) const {
+  std::vector<config::ParameterPrior> priors = ladder_config_.priors;
+  const auto& params = library_.Get(effect)->info().params;
+  for (const Identifier::StandstillPrior& sp : TrainingStandstillPriors()) {
+    // A per-drive form (gyro_offset_per_drive) reports its reference drive's value, not the pooled stops'.
+    if (std::any_of(params.begin(), params.end(), [&](const auto& p) { return p.name == sp.param && p.per_drive; })) continue;
+    const bool configured = std::any_of(priors.begin(), priors.end(), [&](const config::ParameterPrior& p) { return p.name == sp.param; });
+    char where[128];
+    std::snprintf(where, sizeof where, "the mean over %zu stops, standard error %.2g", sp.stops, sp.sd);
+    if (!configured) priors.push_back({sp.param, sp.value, std::max(sp.sd, kStopsRelativeTolerance * std::abs(sp.value) / 3), where});
+  }
+  return priors;
+}
+
+bool ErrorLadder::IsCandidate(const std::string& effect) const {
+  const auto& cands = options_.diagnosis.candidates;
+  return cands.empty() || options_.diagnosis.candidates_extend_library || std::find(cands.begin(), cands.end(), effect) != cands.end();
+}
+
 // The current effects with `effect` added; an alternative of an effect in the model
 // (gyro_offset_per_drive for gyro_offset) replaces it.
 std::vector<std::string> ErrorLadder::EffectsWith(const std::string& effect) const {
@@ -241,7 +386,7 @@ ErrorLadder::Judged ErrorLadder::JudgeRefit(const std::string& effect, const Ref
   t.held_out_after = after;
   t.delta_bic = dbic;
   if (both) t.yaw_before = yb, t.yaw_after = ya;
-  const std::string contradicts = PriorContradiction(fit_, f2, ladder_config_.priors);
+  const std::string contradicts = PriorContradiction(fit_, f2, JudgingPriors(effect));
   if (!contradicts.empty()) better = false;
   const std::string implausible = ImplausibleParameters(*library_.Get(effect), f2, options_.determined_z);
   const bool on_bound = !ParametersOnTheirBounds(*library_.Get(effect), f2).empty();
@@ -290,7 +435,7 @@ void ErrorLadder::AddRung(const Refit& refit, const std::string& added, double d
   current_ = refit.model;
   fit_ = refit.fit;
   current_.set_drive_values(fit_.drive_values);
-  ladder_.rungs.push_back({current_.spec().Describe(), added, fit_, dbic});
+  ladder_.rungs.push_back({current_.spec().Describe(), added, fit_, dbic, ""});
 }
 
 std::string ErrorLadder::StopReason(int tried) const {

@@ -8,6 +8,9 @@
 //   TrySpeedScaleFirst the speed scale read from a_x: a prior on every fit, speed_scale itself first
 //   ClimbOneRung       diagnose (the ranking), refit the best candidates one by one (TryCandidate,
 //                      judged by trial_rules.h), add the first that passes, else the EG-relevant one
+//   TryStandstillEvidence after the climb: an effect the stops determine and the model lacks
+//                      (an a_y bias a steering offset has absorbed), refitted with that evidence
+//   PruneUndetermined  an added effect a later one left undetermined is taken out again
 //   Judge              after the last rung: EG settled?, each output against its noise floor (verdicts.h)
 // Every stopping rule is its own predicate: StartingFitFailed, StepLimitReached, and ClimbOneRung's
 // false (nothing added: StopReason says why).
@@ -57,12 +60,19 @@ class ErrorLadder {
   void AddLookAlikeThenAlign();
   void TrySpeedScaleFirst();
   bool ClimbOneRung();  // true when a rung was added
+  void TryStandstillEvidence();
+  void PruneUndetermined();
   void Judge();
 
   // Within a rung.
   std::vector<CandidateScore> TrialOrder(const Diagnosis& diagnosis) const;
   bool IsTried(const CandidateScore& c, const Diagnosis& diagnosis, int tried, int most = 3) const;
   std::vector<std::string> EffectsWith(const std::string& effect) const;
+  // The stops' evidence on the training drives, and every prior a refit with `effect` is judged against.
+  std::vector<identify::Identifier::StandstillPrior> TrainingStandstillPriors() const;
+  std::vector<config::ParameterPrior> JudgingPriors(const std::string& effect) const;
+  // The ladder may add `effect`: the library's candidates, or the user's list (--candidates).
+  bool IsCandidate(const std::string& effect) const;
   Refit RefitWith(const std::vector<std::string>& effects) const;
   // The ladder's rules on a refit with `effect` added, against the current fit.
   Judged JudgeRefit(const std::string& effect, const Refit& r) const;

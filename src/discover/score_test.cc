@@ -37,7 +37,7 @@ namespace {
 std::vector<std::string> ConfoundedWith(int a, double uniqueness, const ScoringModel& sm, const Projection& p) {
   std::vector<std::string> out;
   const int nf = static_cast<int>(sm.fitted.size()), nc = static_cast<int>(sm.candidates.size());
-  if (uniqueness < 0.2) {
+  if (uniqueness < kConfoundedUniqueness) {
     for (int f = 0; f < nf; ++f) {
       const double share = std::abs(p.B(f, a)) * std::sqrt(p.JtJ(f, f) / std::max(p.GtG(a, a), 1e-300));
       if (share > 0.3) out.push_back(sm.big.param_name(sm.fitted[f]));

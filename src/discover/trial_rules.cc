@@ -125,7 +125,7 @@ std::string ImplausibleParameters(const model::Effect& effect, const identify::I
   return undetermined + (undetermined.empty() || on_bound.empty() ? "" : ", ") + on_bound;
 }
 
-bool KeepsSpeedScale(const Trial& t, bool both) {
+bool HeldOutHolds(const Trial& t, bool both) {
   return t.held_out_after <= 1.01 * t.held_out_before && (!both || t.yaw_after <= 1.01 * t.yaw_before);
 }
 

@@ -97,7 +97,9 @@ std::string ParametersOnTheirBounds(const model::Effect& effect, const identify:
 // `effect` in `fit` passes both, else the ones that do not, in words.
 std::string ImplausibleParameters(const model::Effect& effect, const identify::IdentificationResult& fit, double z);
 
-// The speed scale read from a_x is added first when neither held-out RMSE rises by more than 1 %.
-bool KeepsSpeedScale(const Trial& t, bool both);
+// Neither fitted output's held-out RMSE rises by more than 1 % from t's before to its after: the
+// rule for a change the data need not confirm, only not contradict (the speed scale read from a_x,
+// an effect the stops determine, an undetermined effect taken out again).
+bool HeldOutHolds(const Trial& t, bool both);
 
 }  // namespace ndsid::discover

@@ -89,7 +89,7 @@ std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, 
 }
 
 bool LeavesEgUnsettled(const Trial& t, int final_step, const LadderOptions& options) {
-  if (t.step != final_step || t.accepted || t.held_out_after <= 0) return false;
+  if (t.step != final_step || t.accepted || t.removal || t.held_out_after <= 0) return false;
   const double ratio = options.eg_unsettled_rmse_ratio;
   if (t.held_out_after > ratio * t.held_out_before || (t.yaw_before > 0 && t.yaw_after > ratio * t.yaw_before))
     return false;  // the held-out data reject this model: it does not unsettle EG

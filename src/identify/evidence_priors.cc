@@ -48,7 +48,7 @@ std::vector<Identifier::StandstillPrior> Identifier::StandstillPriors(const std:
     for (double x : v) mean += x / n;
     for (double x : v) ss += (x - mean) * (x - mean);
     const double se = std::sqrt(ss / (n - 1) / n);
-    out.push_back({param, mean, std::max(se, 0.01 * typical), v.size(), seconds});
+    out.push_back({param, mean, std::max(se, 0.01 * typical), v.size(), seconds, effect});
   };
   add("gyro_offset", [](const gate::StandstillStop& st) { return st.mean_yaw_rate_radps; });
   add("accel_bias", [](const gate::StandstillStop& st) { return st.mean_lat_accel_mps2; });

@@ -31,6 +31,9 @@ struct HiddenCase {
   bool added_before_ranking = false;    // added from model-free evidence before the first diagnosis (speed_scale from a_x)
   std::vector<std::string> ranked_first_in = {};  // if set: the first-ranked effect is one of these (a confounded group)
   double speed_unskewed_within_s = -1;  // if >= 0 (no hidden speed latency): an applied speed shift stays within this
+  const char* param2 = "";              // a second recovered parameter ("" = none), its truth and tolerance
+  double truth_value2 = 0;
+  double tolerance2 = 0;
 };
 
 void PrintDiagnosis(const discover::Diagnosis& d) {
@@ -103,8 +106,9 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
                 r.fit.rmse_validation_mps2, r.fit.eg_deg_per_g, r.fit.eg_se_deg_per_g);
   }
   std::printf("  stop: %s\n", ladder.stop_reason.c_str());
-  std::vector<std::string> added;
-  for (size_t i = 1; i < ladder.rungs.size(); ++i) added.push_back(ladder.rungs[i].added);
+  std::vector<std::string> added;  // what the final model holds beyond the start
+  for (const std::string& e : ladder.final_effects)
+    if (e != "road_bank") added.push_back(e);
   const std::string& first = ladder.diagnoses.front().ranked.front().effect;
   if (!c.confounded.empty()) {
     // Physically confounded with the model's other terms: one member of the group, any.
@@ -149,15 +153,19 @@ void RunCase(const HiddenCase& c, uint64_t seed, double hours) {
   }
   // The effect's parameter is recovered; EG's bias from the hidden effect is gone: EG within 1 %
   // of the truth (the clean model is unbiased to ~0.1 %, docs/accuracy.md).
-  if (*c.param && c.confounded.empty()) {
+  for (const auto& p : final_fit.effect_params) std::printf("  final %s %.5g ± %.2g\n", p.name.c_str(), p.value, p.se);
+  const std::pair<const char*, std::pair<double, double>> checked[] = {{c.param, {c.truth_value, c.tolerance}},
+                                                                       {c.param2, {c.truth_value2, c.tolerance2}}};
+  for (const auto& [param, truth] : checked) {
+    if (!*param || !c.confounded.empty()) continue;
     bool found = false;
     for (const auto& p : final_fit.effect_params) {
-      if (p.name != c.param) continue;
+      if (p.name != param) continue;
       found = true;
-      std::printf("  %s %.4f ± %.4f, truth %.4f\n", p.name.c_str(), p.value, p.se, c.truth_value);
-      EXPECT_NEAR(p.value, c.truth_value, c.tolerance) << p.name;
+      std::printf("  %s %.4f ± %.4f, truth %.4f\n", p.name.c_str(), p.value, p.se, truth.first);
+      EXPECT_NEAR(p.value, truth.first, truth.second) << p.name;
     }
-    EXPECT_TRUE(found) << c.param;
+    EXPECT_TRUE(found) << param;
   }
   std::printf("  EG %.4f deg/g, truth %.4f (%+.2f %%)\n", final_fit.eg_deg_per_g, model::EgToDegPerG(run.eg_truth),
               100 * (final_fit.eg_rad_per_mps2 - run.eg_truth) / run.eg_truth);
@@ -194,6 +202,25 @@ TEST(HiddenEffectLong, AccelerometerBiasConfoundedWithSteerOffset) {
 TEST(HiddenEffectLong, AccelerometerBiasFoundWithStandstillEvidence) {
   RunCase({"bias_standstill", {"accel_bias_mps2=-0.13"}, {"accel_bias"}, {}, "accel_bias_mps2", -0.13, 0.02}, 54, 1.5);
   RunCase({"bias_standstill_2", {"accel_bias_mps2=0.09"}, {"accel_bias"}, {}, "accel_bias_mps2", 0.09, 0.02}, 55, 1.5);
+}
+
+// A steering offset and an accelerometer bias together. With road_bank the driving data fit
+// only d0 - is EG b: the first of the two the ladder adds takes up the other (measured before
+// the stops judged it: the steering offset at 2.3 times its truth, or the bias at 0.35 for 0.2
+// m/s^2, each with a standard error a hundred times smaller than its error). A candidate whose
+// refit contradicts the stops is rejected, and after the climb the bias the stops determine is
+// added (the ladder's standstill rung): both recovered, EG within 1 %. Other signs, magnitudes
+// and seeds than the cases above; a_y alone and with the yaw rate.
+TEST(HiddenEffectLong, SteeringOffsetAndAccelerometerBiasSplitByTheStops) {
+  HiddenCase c{"steer_bias", {"steer_offset_deg=-1.1", "accel_bias_mps2=0.2"}, {"steer_offset", "accel_bias"}, {},
+               "steer_offset_rad", -1.1 * M_PI / 180, 0.003};
+  c.param2 = "accel_bias_mps2", c.truth_value2 = 0.2, c.tolerance2 = 0.03;
+  c.two_outputs = true;
+  RunCase(c, 71, 1.5);
+  HiddenCase d{"steer_bias_2", {"steer_offset_deg=0.9", "accel_bias_mps2=-0.18"}, {"steer_offset", "accel_bias"}, {},
+               "steer_offset_rad", 0.9 * M_PI / 180, 0.003};
+  d.param2 = "accel_bias_mps2", d.truth_value2 = -0.18, d.tolerance2 = 0.03;
+  RunCase(d, 72, 1.5);
 }
 
 // Two outputs (identification.outputs [a_y, yaw_rate]) and real sensors' errors. A gyro offset:

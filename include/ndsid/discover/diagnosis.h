@@ -33,6 +33,8 @@ struct CandidateScore {
   bool significant = false;   // |z_robust| above the threshold
   std::vector<std::string> confounded_with;  // parameters / candidates it trades with
 };
+// Below this uniqueness the current parameters absorb a candidate: confounded_with names them.
+constexpr double kConfoundedUniqueness = 0.2;
 
 struct SignatureCorrelation {
   // Its short name: "bias", "a_y", "a_y3", "w", "w_a_y", "steer_odd" (w(v) sgn(d_sw): an offset odd
@@ -92,6 +94,7 @@ struct Rung {
   std::string added;  // effect added at this rung ("" for the start)
   identify::IdentificationResult fit;
   double delta_bic = 0;  // vs. the previous rung (negative = better), with an effective sample size
+  std::string removed;   // or an effect taken out again at this rung (the ladder's last step)
 };
 
 struct LadderOptions {
@@ -205,6 +208,7 @@ struct Trial {
   double delta_bic = 0;
   double eg_shift_rel = 0, eg_shift_sigma = 0;  // the refit's EG against the rung's: relative, in the refit's sigma
   std::string why;              // e.g. "held-out RMSE -1.2 % (needs -3 %)", "fit not valid: ..."
+  bool removal = false;         // a refit without the effect (taken out again when accepted)
 };
 
 struct Ladder {
@@ -227,6 +231,7 @@ struct Ladder {
   // Empty when EG is settled; else which refits of the last rung move EG, by how much (LadderOptions).
   std::string eg_unsettled;
   std::vector<std::string> eg_unsettled_effects;  // those refits' effects (`--apply` writes them as model.alternatives)
+  std::vector<std::string> final_effects;         // the last rung's model: the start, what was added, less what was taken out
 };
 
 // Step 0 (align the roles in time), then base -> + first effect -> + second ...: diagnose,

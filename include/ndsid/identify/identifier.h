@@ -226,6 +226,7 @@ class Identifier {
     double sd = 0;
     size_t stops = 0;
     double seconds = 0;
+    std::string effect;  // the library effect whose first parameter `param` is (accel_bias, gyro_offset)
   };
   // The priors the standstills of `drives` give (any drive when `drives` is empty), whatever the model.
   std::vector<StandstillPrior> StandstillPriors(const std::set<int64_t>& drives) const {

@@ -79,6 +79,7 @@ std::string HeldOut(double rmse) { return rmse >= 0 ? Fmt("%.4f", rmse) : std::s
 
 // The added effect's parameters of a rung as "name = v ± se unit".
 std::string AddedParams(const discover::Rung& r, const model::EffectLibrary& library) {
+  if (!r.removed.empty()) return "(" + r.removed + " taken out again)";
   if (r.added.empty()) return "";
   const model::ModelSpec spec = model::ModelSpec::FromNames({r.added}, library);
   if (!spec.per_drive_params().empty()) {  // per-drive values: one per drive, the reference's the vector's
@@ -229,7 +230,7 @@ void ReportLadder(const discover::Ladder& ladder, const model::EffectLibrary& li
     r.md += "| " + std::to_string(i) + " | " + rung.model + " | " + Fmt("%.4f", rung.fit.rmse_train_mps2) + " | " +
             HeldOut(rung.fit.rmse_validation_mps2) + " | " + Fmt("%.3f ± %.3f", rung.fit.eg_deg_per_g, rung.fit.eg_se_deg_per_g) +
             " | " + added + " | " + (i ? Fmt("%.1f", rung.delta_bic) : std::string("")) + " |\n";
-    r.j["ladder"].push_back({{"model", rung.model}, {"added", rung.added}, {"valid", rung.fit.valid},
+    r.j["ladder"].push_back({{"model", rung.model}, {"added", rung.added}, {"removed", rung.removed}, {"valid", rung.fit.valid},
                              {"rmse_train_mps2", rung.fit.rmse_train_mps2}, {"rmse_validation_mps2", rung.fit.rmse_validation_mps2},
                              {"eg_deg_per_g", rung.fit.eg_deg_per_g}, {"eg_se_deg_per_g", rung.fit.eg_se_deg_per_g},
                              {"added_parameters", added}, {"delta_bic", rung.delta_bic}});
@@ -240,15 +241,16 @@ void ReportLadder(const discover::Ladder& ladder, const model::EffectLibrary& li
   r.j["trials"] = nlohmann::json::array();
   for (const auto& t : ladder.trials) {
     const std::string where = t.step < 0 ? "step 0" : "rung " + std::to_string(t.step);  // step 0: its contest
-    std::printf("  %-7s + %-16s %.4f -> %.4f  %s\n", where.c_str(), t.effect.c_str(), t.held_out_before, t.held_out_after,
+    const char sign = t.removal ? '-' : '+';
+    std::printf("  %-7s %c %-16s %.4f -> %.4f  %s\n", where.c_str(), sign, t.effect.c_str(), t.held_out_before, t.held_out_after,
                 t.why.c_str());
-    r.md += "| " + where + " | " + t.effect + " | " + Fmt("%.4f", t.held_out_before) + " → " +
+    r.md += "| " + where + " | " + (t.removal ? "− " : "") + t.effect + " | " + Fmt("%.4f", t.held_out_before) + " → " +
             Fmt("%.4f", t.held_out_after) + " | " + t.why + " |\n";
     r.j["trials"].push_back({{"step", t.step}, {"effect", t.effect}, {"accepted", t.accepted},
                              {"held_out_before_mps2", t.held_out_before}, {"held_out_after_mps2", t.held_out_after},
                              {"yaw_before_radps", t.yaw_before}, {"yaw_after_radps", t.yaw_after},
                              {"delta_bic", t.delta_bic}, {"eg_shift_rel", t.eg_shift_rel},
-                             {"eg_shift_sigma", t.eg_shift_sigma}, {"why", t.why}});
+                             {"eg_shift_sigma", t.eg_shift_sigma}, {"why", t.why}, {"removal", t.removal}});
   }
 }
 
@@ -390,9 +392,7 @@ int Run(const DiagnoseArgs& a) {
   const discover::Ladder ladder = discover::ClimbErrorLadder(data->config.identification, data->config.vehicle.wheelbase_m,
                                                              start, data->pipeline->library(), data->window.training,
                                                              data->window.validation, opt);
-  std::vector<std::string> final_effects = start;
-  for (const auto& r : ladder.rungs)
-    if (!r.added.empty()) final_effects.push_back(r.added);
+  const std::vector<std::string>& final_effects = ladder.final_effects;
 
   DiagnoseReport report;
   report.md = "# ndsid diagnose: " + data->outcome.name + "\n\nStart: " + JoinEffects(start) + "\n\n";
