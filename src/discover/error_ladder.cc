@@ -117,17 +117,12 @@ void ErrorLadder::TrySpeedScaleFirst() {
   if (!f2.valid) {
     t.why = "fit not valid: " + f2.reason;
   } else {
-    t.held_out_after = HeldOutRmse(f2);
     const bool both = fit_.yaw_rate_output && f2.yaw_rate_output;
-    if (both) t.yaw_before = HeldOutYawRmse(fit_), t.yaw_after = HeldOutYawRmse(f2);
-    RecordEgShift(t, fit_, f2);
+    RecordRefit(t, fit_, f2, both);
     t.accepted = HeldOutHolds(t, both);
-    char yaw[48] = "";
-    if (both) std::snprintf(yaw, sizeof yaw, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
-    std::snprintf(why, sizeof why,
-                  "%s (evidence from a_x: %+.2f +- %.2f %%, prior sd %.2f %%): held-out RMSE %+.1f %%%s; EG %+.2f %% (%+.1f sigma)",
+    std::snprintf(why, sizeof why, "%s (evidence from a_x: %+.2f +- %.2f %%, prior sd %.2f %%): %s; EG %+.2f %% (%+.1f sigma)",
                   t.accepted ? "added" : "rejected, a held-out RMSE rose by more than 1 %", 100 * sse.scale, 100 * sse.se,
-                  100 * sd, 100 * (t.held_out_after / t.held_out_before - 1), yaw, 100 * t.eg_shift_rel, t.eg_shift_sigma);
+                  100 * sd, HeldOutChangeText(t, both).c_str(), 100 * t.eg_shift_rel, t.eg_shift_sigma);
     t.why = why;
   }
   spdlog::info("ladder: + speed_scale: {}", t.why);
@@ -171,20 +166,16 @@ void ErrorLadder::TryStandstillEvidence() {
       t.why = std::string("rejected (") + evidence + "): fit not valid: " + r.fit.reason;
     } else {
       const bool both = BothOutputsScored(fit_, r.fit);
-      t.held_out_after = HeldOutRmse(r.fit);
-      if (both) t.yaw_before = HeldOutYawRmse(fit_), t.yaw_after = HeldOutYawRmse(r.fit);
-      RecordEgShift(t, fit_, r.fit);
+      RecordRefit(t, fit_, r.fit, both);
       const std::string implausible = ImplausibleParameters(*library_.Get(effect), r.fit, options_.determined_z);
       double fitted = sp.value;
       for (const auto& p : r.fit.effect_params)
         if (p.name == sp.param) fitted = p.value;
       const bool agrees = std::abs(fitted - sp.value) <= 3 * sp.sd;
       t.accepted = HeldOutHolds(t, both) && implausible.empty() && agrees;
-      char yaw[48] = "", why[320];
-      if (both) std::snprintf(yaw, sizeof yaw, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
-      std::snprintf(why, sizeof why, "%s (%s): refit %.4g; held-out RMSE %+.1f %%%s; EG %+.2f %% (%+.1f sigma)",
-                    t.accepted ? "added" : "rejected", evidence, fitted, 100 * (t.held_out_after / t.held_out_before - 1), yaw,
-                    100 * t.eg_shift_rel, t.eg_shift_sigma);
+      char why[320];
+      std::snprintf(why, sizeof why, "%s (%s): refit %.4g; %s; EG %+.2f %% (%+.1f sigma)", t.accepted ? "added" : "rejected",
+                    evidence, fitted, HeldOutChangeText(t, both).c_str(), 100 * t.eg_shift_rel, t.eg_shift_sigma);
       t.why = why;
       if (!agrees) t.why += "; the refit contradicts the stops";
       if (!implausible.empty()) t.why += "; " + implausible;
@@ -220,25 +211,16 @@ void ErrorLadder::PruneUndetermined() {
       t.why = "kept although " + undetermined + ": the fit without it is not valid: " + r.fit.reason;
     } else {
       const bool both = BothOutputsScored(fit_, r.fit);
-      t.held_out_after = HeldOutRmse(r.fit);
-      if (both) t.yaw_before = HeldOutYawRmse(fit_), t.yaw_after = HeldOutYawRmse(r.fit);
-      RecordEgShift(t, fit_, r.fit);
+      RecordRefit(t, fit_, r.fit, both);
       t.accepted = HeldOutHolds(t, both);
-      char yaw[48] = "", why[200];
-      if (both) std::snprintf(yaw, sizeof yaw, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
-      std::snprintf(why, sizeof why, "without it: held-out RMSE %+.1f %%%s; EG %+.2f %% (%+.1f sigma)",
-                    100 * (t.held_out_after / t.held_out_before - 1), yaw, 100 * t.eg_shift_rel, t.eg_shift_sigma);
+      char why[200];
+      std::snprintf(why, sizeof why, "without it: %s; EG %+.2f %% (%+.1f sigma)", HeldOutChangeText(t, both).c_str(),
+                    100 * t.eg_shift_rel, t.eg_shift_sigma);
       t.why = (t.accepted ? "taken out again (" : "kept although (") + undetermined + "): " + why;
     }
     spdlog::info("ladder: - {}: {}", effect, t.why);
     ladder_.trials.push_back(t);
-    if (!t.accepted) continue;
-    effects_ = r.effects;
-    current_ = r.model;
-    fit_ = r.fit;
-    current_.set_drive_values(fit_.drive_values);
-    const double dbic = DeltaBic(ladder_.rungs.back().fit, fit_, BothOutputsScored(ladder_.rungs.back().fit, fit_)).delta;
-    ladder_.rungs.push_back({current_.spec().Describe(), "", fit_, dbic, effect});
+    if (t.accepted) AddRung(r, "", DeltaBic(fit_, r.fit, BothOutputsScored(fit_, r.fit)).delta, effect);
   }
 }
 
@@ -429,13 +411,13 @@ void ErrorLadder::AddEgRelevant(const std::vector<EgRelevant>& eg_relevant) {
   AddRung(best->refit, t.effect, t.delta_bic);
 }
 
-// A refit becomes the ladder's next rung.
-void ErrorLadder::AddRung(const Refit& refit, const std::string& added, double dbic) {
+// A refit becomes the ladder's next rung: with `added`, or without `removed`.
+void ErrorLadder::AddRung(const Refit& refit, const std::string& added, double dbic, const std::string& removed) {
   effects_ = refit.effects;
   current_ = refit.model;
   fit_ = refit.fit;
   current_.set_drive_values(fit_.drive_values);
-  ladder_.rungs.push_back({current_.spec().Describe(), added, fit_, dbic, ""});
+  ladder_.rungs.push_back({current_.spec().Describe(), added, fit_, dbic, removed});
 }
 
 std::string ErrorLadder::StopReason(int tried) const {

@@ -80,7 +80,7 @@ class ErrorLadder {
   // refit that is not is appended to `eg_relevant`.
   bool TryCandidate(const CandidateScore& c, std::vector<EgRelevant>& eg_relevant);
   void AddEgRelevant(const std::vector<EgRelevant>& eg_relevant);
-  void AddRung(const Refit& refit, const std::string& added, double dbic);
+  void AddRung(const Refit& refit, const std::string& added, double dbic, const std::string& removed = "");
 
   // Step 0 (error_ladder_step0.cc).
   // A model refitted on shifted copies of the data, and the guard's verdict.

@@ -81,6 +81,19 @@ void RecordEgShift(Trial& t, const identify::IdentificationResult& before, const
   t.eg_shift_sigma = f2.eg_se_rad_per_mps2 > 0 ? (f2.eg_rad_per_mps2 - fit.eg_rad_per_mps2) / f2.eg_se_rad_per_mps2 : 0.0;
 }
 
+void RecordRefit(Trial& t, const identify::IdentificationResult& before, const identify::IdentificationResult& after, bool both) {
+  t.held_out_after = HeldOutRmse(after);
+  if (both) t.yaw_before = HeldOutYawRmse(before), t.yaw_after = HeldOutYawRmse(after);
+  RecordEgShift(t, before, after);
+}
+
+std::string HeldOutChangeText(const Trial& t, bool both) {
+  char text[80];
+  int n = std::snprintf(text, sizeof text, "held-out RMSE %+.1f %%", 100 * (t.held_out_after / t.held_out_before - 1));
+  if (both) std::snprintf(text + n, sizeof text - n, ", yaw rate %+.1f %%", 100 * (t.yaw_after / t.yaw_before - 1));
+  return text;
+}
+
 bool IsEgRelevant(const Trial& t, const LadderOptions& options) {
   const double before = t.held_out_before, after = t.held_out_after, yb = t.yaw_before, ya = t.yaw_after;
   const double fall = std::max(1.0 - after / before, 1.0 - ya / yb);

@@ -46,6 +46,12 @@ std::string PriorContradiction(const identify::IdentificationResult& before, con
 // How far a refit moves EG from the rung's fit: relative, and in the refit's sigma (Trial).
 void RecordEgShift(Trial& t, const identify::IdentificationResult& before, const identify::IdentificationResult& after);
 
+// A valid refit against the rung's fit: t's held-out RMSEs after (and both yaw rates when `both`
+// outputs are scored) and its EG shift.
+void RecordRefit(Trial& t, const identify::IdentificationResult& before, const identify::IdentificationResult& after, bool both);
+// "held-out RMSE +x.x %", with both outputs followed by ", yaw rate +y.y %".
+std::string HeldOutChangeText(const Trial& t, bool both);
+
 // The EG-relevant rule (LadderOptions): both outputs, neither held-out RMSE rises, one falls by
 // eg_relevant_min_improvement, the BIC falls, and EG moves by more than eg_relevant_shift_sigma of
 // its standard error and eg_relevant_shift_rel of itself. `t` carries the held-out RMSEs, the BIC
