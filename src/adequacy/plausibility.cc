@@ -41,7 +41,13 @@ struct DriveSums {
 // Samples that carry the information: turning enough that v r or a_y (or d_sw) stands out of the
 // noise.
 constexpr double kMinKinematicMps2 = 0.5;  // |v r| [m/s^2]
-constexpr double kMinSteerRad = 0.05;      // |d_sw| at the steering wheel [rad], about 3 deg
+constexpr double kMinSteerRad = 0.05;      // |d_sw| at the steering wheel [rad], about 3 deg, ...
+// ... for the default steer-ratio range 8..30; another range (a road-wheel angle: 0.7..1.5) scales
+// it by the ratio of the ranges' middles (geometric means): the same turn of the road wheels.
+constexpr double kDefaultSteerRatioProduct = 8.0 * 30.0;
+double MinSteerRad(const config::PlausibilityConfig& q) {
+  return kMinSteerRad * std::sqrt(q.steer_ratio_min * q.steer_ratio_max / kDefaultSteerRatioProduct);
+}
 constexpr double kMaxSteerLatAccel = 3.0;  // |a_y| for the steering check: the linear range
 // a_y = v (r + beta'): the kinematic relation a_y = v r holds where beta' is small, in quasi-steady
 // turning. Samples whose yaw acceleration (over +- kYawAccelHalfWindowS) exceeds this are left out
@@ -60,7 +66,7 @@ bool QuasiSteady(const stats::Segment& seg, size_t k) {
   return std::isfinite(ra) && std::isfinite(rb) && std::abs(rb - ra) / ((b - a) * seg.dt_s) <= kMaxYawAccelRadps2;
 }
 
-void Accumulate(const stats::Segment& seg, DriveSums& d) {
+void Accumulate(const stats::Segment& seg, double min_steer_rad, DriveSums& d) {
   d.t0_ns = std::min(d.t0_ns, seg.t0_ns);
   d.steer_uses_yaw = seg.has_yaw_rate;
   for (size_t k = 0; k < seg.samples.size(); ++k) {
@@ -71,8 +77,8 @@ void Accumulate(const stats::Segment& seg, DriveSums& d) {
       // Either side large: a unit mistake that shrinks one side must not hide the samples.
       if ((std::abs(v * r) > kMinKinematicMps2 || std::abs(a) > kMinKinematicMps2) && QuasiSteady(seg, k))
         d.kinematic.Add(v * r, a, seg.dt_s);
-      if (std::abs(delta) > kMinSteerRad && std::abs(a) < kMaxSteerLatAccel) d.steer.Add(v * delta, r, seg.dt_s);
-    } else if (std::abs(delta) > kMinSteerRad && std::abs(a) < kMaxSteerLatAccel) {
+      if (std::abs(delta) > min_steer_rad && std::abs(a) < kMaxSteerLatAccel) d.steer.Add(v * delta, r, seg.dt_s);
+    } else if (std::abs(delta) > min_steer_rad && std::abs(a) < kMaxSteerLatAccel) {
       d.steer.Add(v * v * delta, a, seg.dt_s);
     }
   }
@@ -185,7 +191,7 @@ std::string PlausibilityReport::Reason() const {
 
 PlausibilityReport CheckData(const std::vector<const stats::Segment*>& segments, const config::PlausibilityConfig& limits) {
   std::map<int64_t, DriveSums> drives;
-  for (const stats::Segment* seg : segments) Accumulate(*seg, drives[seg->drive_id]);
+  for (const stats::Segment* seg : segments) Accumulate(*seg, MinSteerRad(limits), drives[seg->drive_id]);
   PlausibilityReport report;
   DriveSums all;
   for (const auto& [id, d] : drives) {
@@ -256,10 +262,16 @@ void CheckEstimate(const EstimateFacts& f, const config::PlausibilityConfig& q, 
   if (f.steer_ratio > 0) {
     ratio.value = f.steer_ratio;
     ratio.verdict = f.steer_ratio >= q.steer_ratio_min && f.steer_ratio <= q.steer_ratio_max ? Verdict::kPassed : Verdict::kFailed;
-    ratio.message = Fmt("steady-state steer ratio %.1f (road vehicles %.0f..%.0f)", f.steer_ratio, q.steer_ratio_min, q.steer_ratio_max);
+    ratio.message = Fmt("steady-state steer ratio %.2g (accepted %.2g..%.2g)", f.steer_ratio, q.steer_ratio_min, q.steer_ratio_max);
+    // Near 1 the bus carries the road wheels' angle; near 15 the steering wheel's.
     if (ratio.verdict == Verdict::kFailed)
-      ratio.message += f.steer_ratio > q.steer_ratio_max ? ": is steering_wheel_angle in rad but configured in deg, or vice versa?"
-                                                         : ": is steering_wheel_angle the road-wheel angle, or its unit wrong?";
+      ratio.message += f.steer_ratio > q.steer_ratio_max
+                           ? (f.steer_ratio > 5 && q.steer_ratio_max < 5
+                                  ? ": is steering_wheel_angle the steering wheel's angle (vehicle.steering_angle_at: steering_wheel)?"
+                                  : ": is steering_wheel_angle in rad but configured in deg, or vice versa?")
+                           : (f.steer_ratio < 2.5 ? ": is steering_wheel_angle the road wheels' angle (vehicle.steering_angle_at: "
+                                                    "road_wheels), or its unit wrong?"
+                                                  : ": is steering_wheel_angle in deg but configured in rad, or vice versa?");
   } else {
     ratio.message = "steady-state steer ratio: skipped (no steady-state estimate yet)";
   }

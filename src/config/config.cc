@@ -93,6 +93,11 @@ Config ParseConfigText(const std::string& yaml_text, const std::string& path) {
   Config c;
   c.path = path;
   ReadVehicle(top.Child("vehicle"), c.vehicle);
+  if (c.vehicle.road_wheel_angle) {  // defaults for a road-wheel angle; gate and plausibility may set their own
+    c.plausibility.steer_ratio_min = PlausibilityConfig::kRoadWheelSteerRatioMin;
+    c.plausibility.steer_ratio_max = PlausibilityConfig::kRoadWheelSteerRatioMax;
+    c.gate.quasi_steady_max_steer_rate_radps /= GateConfig::kTypicalSteerRatio;  // the same turn of the road wheels
+  }
   ReadSource(top.Child("source"), base_dir, c.source);
   c.dbc = Resolve(base_dir, top.String("dbc"));
   ReadSignals(top.Child("signals"), c);

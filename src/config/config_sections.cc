@@ -103,6 +103,9 @@ void ReadVehicle(const YamlReader& v, VehicleConfig& vehicle) {
   }
   vehicle.track_front_m = Ranged(v, "track_front_m", 0.0, 0, 5.0);
   vehicle.track_rear_m = Ranged(v, "track_rear_m", 0.0, 0, 5.0);
+  const std::string at = v.String("steering_angle_at", "steering_wheel");
+  if (at != "steering_wheel" && at != "road_wheels") v.Fail("steering_angle_at", "must be 'steering_wheel' or 'road_wheels', got '" + at + "'");
+  vehicle.road_wheel_angle = at == "road_wheels";
   v.Finish();
 }
 
@@ -195,12 +198,13 @@ void ReadAdequacy(const YamlReader& a, AdequacyConfig& adequacy) {
 }
 
 void ReadPlausibility(const YamlReader& p, PlausibilityConfig& q) {
+  // q arrives with the vehicle's defaults (RoadWheelPlausibility for a road-wheel angle).
   q.kinematic_gain_min = Ranged(p, "kinematic_gain_min", q.kinematic_gain_min, 0.01, 1);
   q.kinematic_gain_max = Ranged(p, "kinematic_gain_max", q.kinematic_gain_max, 1, 100);
   q.kinematic_correlation_min = Ranged(p, "kinematic_correlation_min", q.kinematic_correlation_min, 0, 1);
   q.steer_yaw_correlation_min = Ranged(p, "steer_yaw_correlation_min", q.steer_yaw_correlation_min, 0, 1);
-  q.steer_ratio_min = Ranged(p, "steer_ratio_min", q.steer_ratio_min, 1, 1000);
-  q.steer_ratio_max = Ranged(p, "steer_ratio_max", q.steer_ratio_max, 1, 1000);
+  q.steer_ratio_min = Ranged(p, "steer_ratio_min", q.steer_ratio_min, 0.1, 1000);
+  q.steer_ratio_max = Ranged(p, "steer_ratio_max", q.steer_ratio_max, 0.1, 1000);
   if (q.steer_ratio_max <= q.steer_ratio_min) p.Fail("steer_ratio_max", "must be above steer_ratio_min");
   q.eg_min_deg_per_g = Ranged(p, "eg_min_deg_per_g", q.eg_min_deg_per_g, -100, 100);
   q.eg_max_deg_per_g = Ranged(p, "eg_max_deg_per_g", q.eg_max_deg_per_g, -100, 100);

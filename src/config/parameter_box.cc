@@ -34,7 +34,8 @@ std::array<ParameterSpec, 6> PhysicalParameterBox(const VehicleConfig& v, const 
   p[3] = {q.cornering_coefficient_min * mg * s_min, q.cornering_coefficient_max * mg * s_max,
           q.cornering_coefficient_rear_typical * mg * s0, false};
   p[4] = {s_min * l, s_max * l, s0 * l, false};
-  p[5] = {q.steer_ratio_min, q.steer_ratio_max, q.steer_ratio_typical, false};
+  p[5] = v.road_wheel_angle ? ParameterSpec{q.road_wheel_steer_ratio_min, q.road_wheel_steer_ratio_max, 1.0, false}
+                             : ParameterSpec{q.steer_ratio_min, q.steer_ratio_max, q.steer_ratio_typical, false};
   for (ParameterSpec& x : p) x.initial = std::clamp(x.initial, x.lower, x.upper);
   return p;
 }

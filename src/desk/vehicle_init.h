@@ -52,6 +52,7 @@ struct InitResult {
   double moving_s = 0;              // time with speed above 5 m/s (once the speed is known)
   uint64_t frames = 0;
   bool truncated = false;           // stopped at InitOptions::max_frames
+  bool road_wheel_angle = false;    // the steering signal reads the road wheels (steer ratio about 1)
 
   const RoleProposal* Find(config::Role role) const;
   bool MandatoryFound() const;  // steering, speed and a_y found

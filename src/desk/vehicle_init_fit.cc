@@ -120,6 +120,32 @@ const std::vector<double>& Grid::Of(const Source& s) {
   return sources_.emplace(s.expression, std::move(g)).first->second;
 }
 
+namespace {
+
+// What the steering signal reads, from the steer ratio a unit gives it (is = to_si / (|g| l)):
+// a steering wheel's angle 10..25, the road wheels' angle about 1 (0.7..1.5: a research car's or a
+// simulator's export). The log distance from the nearer of the two ranges, 0 inside it.
+struct SteerReading {
+  double distance;   // log distance of the steer ratio from its range
+  bool road_wheels;  // the nearer range is the road wheels'
+};
+
+SteerReading ReadSteerRatio(double is) {
+  const double wheel = std::max({0.0, std::log(10.0 / is), std::log(is / 25.0)});
+  const double road = std::max({0.0, std::log(0.7 / is), std::log(is / 1.5)});
+  return road < wheel ? SteerReading{road, true} : SteerReading{wheel, false};
+}
+
+std::string SteerRatioText(double is, bool road_wheels) {
+  if (road_wheels)
+    return is < 0.7 || is > 1.5 ? fmt::format("steer ratio {:.2f} outside 0.7..1.5: check the unit", is)
+                                : fmt::format("steer ratio {:.2f}: the road wheels' angle, not the steering wheel's "
+                                              "(vehicle.steering_angle_at: road_wheels)", is);
+  return is < 10.0 || is > 25.0 ? fmt::format("steer ratio {:.1f} outside 10..25: check the unit", is) : std::string();
+}
+
+}  // namespace
+
 std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const std::vector<Source>& speed,
                                           const std::vector<Source>& lat, const std::vector<Source>& steer,
                                           const InitOptions& options, InitResult& result) {
@@ -171,6 +197,7 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
   const double v99 = Percentile(Abs(grid.Of(*best.v)), 0.99);
   const double a99 = Percentile(Abs(grid.Of(*best.a)), 0.99);
   double total = 0, top = -1, top_is = 0;
+  bool top_road = false;
   size_t bv = 0, bd = 0, ba = 0;
   Fit bfit;
   std::vector<double> marg_v(su.size()), marg_d(du.size()), marg_a(au.size());
@@ -180,14 +207,14 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
     for (size_t j = 0; j < du.size(); ++j)
       for (size_t m = 0; m < au.size(); ++m) {
         const double is = du[j].to_si / (au[m].to_si * std::fabs(f.gain) * l);
-        const double dist = std::max({0.0, std::log(10.0 / is), std::log(is / 25.0)});
-        double w = pv[i] * pd[j] * pa[m] * Gauss(dist / 0.25);
+        const SteerReading reading = ReadSteerRatio(is);
+        double w = pv[i] * pd[j] * pa[m] * Gauss(reading.distance / 0.25);
         if (v99 * su[i].to_si > 75.0 || v99 * su[i].to_si < 1.0) w *= 0.05;
         if (a99 * au[m].to_si > 15.0) w *= 0.05;
         if (!std::isfinite(w)) w = 0;
         total += w;
         marg_v[i] += w, marg_d[j] += w, marg_a[m] += w;
-        if (w > top) top = w, bv = i, bd = j, ba = m, bfit = f, top_is = is;
+        if (w > top) top = w, bv = i, bd = j, ba = m, bfit = f, top_is = is, top_road = reading.road_wheels;
       }
   }
   if (!(total > 0)) return {};
@@ -221,6 +248,8 @@ std::vector<double> ProposeWithoutYawRate(const BusData& data, Grid& grid, const
   };
   fill(Role::kSpeed, *best.v, su[bv].name, marg_v[bv] / total, 1);
   fill(Role::kSteeringWheelAngle, *best.d, du[bd].name, marg_d[bd] / total, dir);
+  result.road_wheel_angle = top_road;
+  if (const std::string text = SteerRatioText(top_is, top_road); !text.empty()) role(Role::kSteeringWheelAngle).evidence.push_back(text);
   fill(Role::kLateralAcceleration, *best.a, au[ba].name, marg_a[ba] / total, dir * rel);
   if (!best.d->pair_evidence.empty()) role(Role::kSteeringWheelAngle).evidence.push_back(best.d->pair_evidence);
   std::vector<double> v_si = grid.Of(*best.v);
@@ -282,9 +311,7 @@ void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, double 
   std::vector<double> w(units.size());
   double total = 0;
   for (size_t i = 0; i < units.size(); ++i) {
-    const double is = units[i].to_si / (std::fabs(bs.fit.gain) * l);
-    const double d = std::max({0.0, std::log(10.0 / is), std::log(is / 25.0)});
-    w[i] = prior[i] * Gauss(d / 0.25);
+    w[i] = prior[i] * Gauss(ReadSteerRatio(units[i].to_si / (std::fabs(bs.fit.gain) * l)).distance / 0.25);
     total += w[i];
   }
   const size_t bu = static_cast<size_t>(std::max_element(w.begin(), w.end()) - w.begin());
@@ -313,7 +340,8 @@ void ProposeSteering(const BusData& data, Grid& grid, const Source& yaw, double 
                                                              bs.fit.corr, single, p.message + "." + p.signal)
                                                : bs.s->pair_evidence);
   }
-  if (is < 10.0 || is > 25.0) p.evidence.push_back(fmt::format("steer ratio {:.1f} outside 10..25: check the unit", is));
+  result.road_wheel_angle = ReadSteerRatio(is).road_wheels;
+  if (const std::string text = SteerRatioText(is, result.road_wheel_angle); !text.empty()) p.evidence.push_back(text);
 }
 
 void ProposeLongitudinal(const BusData& data, Grid& grid, const std::vector<double>& v_si, const std::vector<Source>& lon,

@@ -80,6 +80,8 @@ std::string VehicleConfigYaml(const InitResult& result, const InitYamlInputs& in
   for (const auto& n : result.notes) y << "# " << n << "\n";
   y << "\n";
   WriteVehicle(y, in);
+  if (result.road_wheel_angle)
+    y << "  steering_angle_at: road_wheels   # the steering signal reads the road wheels (steer ratio about 1; docs/new-car.md)\n";
   y << "\nsource:\n"
     << "  type: log\n"
     << "  logs: [" << Quoted(in.log_path) << "]\n"

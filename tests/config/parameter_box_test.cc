@@ -5,7 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <regex>
 #include <string>
+
+#include "minimal_config.h"
 
 namespace ndsid::config {
 namespace {
@@ -71,6 +74,40 @@ TEST(PhysicalParameterBox, TheStartIsAMildlyUndersteeringCar) {
     const double eg = v.m / v.l * (lh / b[2].initial - lv / b[3].initial);
     EXPECT_NEAR(eg * 9.81 * 180 / M_PI, 1.59, 0.01) << v.what;
   }
+}
+
+// A bus that carries the road wheels' angle: every published car's ratio of road-wheel to
+// road-wheel angle (1) lies inside the box, the steering wheel's (13..18) outside it; the checks'
+// defaults follow, and a user's own values win.
+TEST(PhysicalParameterBox, RoadWheelAngleCentresTheSteerRatioOnOne) {
+  for (const Published& v : kVehicles) {
+    const VehicleConfig road{.name = v.what, .wheelbase_m = v.l, .mass_kg = v.m, .road_wheel_angle = true};
+    const auto box = PhysicalParameterBox(road);
+    ExpectInside(box[5], 1.0, v.what + " is of a road-wheel angle");
+    EXPECT_EQ(box[5].initial, 1.0) << v.what;
+    EXPECT_GT(v.is, box[5].upper) << v.what;
+    const auto wheel = PhysicalParameterBox(VehicleConfig{.name = v.what, .wheelbase_m = v.l, .mass_kg = v.m});
+    for (int i = 0; i < 5; ++i) EXPECT_EQ(box[i].lower, wheel[i].lower) << v.what << " parameter " << i;
+  }
+  using testing::kMinimal;
+  const std::string road = std::regex_replace(kMinimal, std::regex("mass_kg: 1500\\}"), "mass_kg: 1500, steering_angle_at: road_wheels}");
+  ASSERT_NE(road, kMinimal);
+  const Config c = ParseConfig(road, "car.yaml");
+  EXPECT_TRUE(c.vehicle.road_wheel_angle);
+  EXPECT_EQ(c.identification.params[5].initial, 1.0);
+  EXPECT_EQ(c.plausibility.steer_ratio_min, PlausibilityConfig::kRoadWheelSteerRatioMin);
+  EXPECT_EQ(c.plausibility.steer_ratio_max, PlausibilityConfig::kRoadWheelSteerRatioMax);
+  EXPECT_NEAR(c.gate.quasi_steady_max_steer_rate_radps, GateConfig{}.quasi_steady_max_steer_rate_radps / 15, 1e-12);
+  const Config own = ParseConfig(road + "plausibility: {steer_ratio_min: 0.9, steer_ratio_max: 1.2}\ngate: {quasi_steady_max_steer_rate_radps: 0.01}\n", "car.yaml");
+  EXPECT_EQ(own.plausibility.steer_ratio_min, 0.9);
+  EXPECT_EQ(own.plausibility.steer_ratio_max, 1.2);
+  EXPECT_EQ(own.gate.quasi_steady_max_steer_rate_radps, 0.01);
+  const Config wheel = ParseConfig(kMinimal, "car.yaml");
+  EXPECT_FALSE(wheel.vehicle.road_wheel_angle);
+  EXPECT_EQ(wheel.plausibility.steer_ratio_min, PlausibilityConfig{}.steer_ratio_min);
+  const std::string bad = testing::ErrorOf(std::regex_replace(kMinimal, std::regex("mass_kg: 1500\\}"), "mass_kg: 1500, steering_angle_at: wheels}"));
+  EXPECT_NE(bad.find("vehicle.steering_angle_at"), std::string::npos) << bad;
+  EXPECT_NE(bad.find("'road_wheels'"), std::string::npos) << bad;
 }
 
 TEST(PhysicalParameterBox, NeedsWheelbaseAndMass) {

@@ -96,6 +96,8 @@ struct GateConfig {
   double min_drive_km = 2.0;             // the study's rule
   double min_segment_s = 4.0;            // shortest contiguous gated stretch for the dynamic fit
   double quasi_steady_max_steer_rate_radps = 0.05;  // |d_sw'| for the steady-state statistics
+  // A road-wheel angle (vehicle.steering_angle_at: road_wheels) divides the default by this.
+  static constexpr double kTypicalSteerRatio = 15;
   double quasi_steady_max_yaw_accel_radps2 = 0.02;
 };
 
@@ -177,6 +179,9 @@ struct PlausibilityConfig {
   double steer_yaw_correlation_min = 0.3;  // r against v d_sw: positive in ISO 8855
   double steer_ratio_min = 8;            // steady-state steering-wheel to road-wheel ratio
   double steer_ratio_max = 30;
+  // ... where the steering role is a road-wheel angle (vehicle.steering_angle_at: road_wheels):
+  // 1 but for compliance steer and the inner and outer wheels' mean.
+  static constexpr double kRoadWheelSteerRatioMin = 0.7, kRoadWheelSteerRatioMax = 1.5;
   double eg_min_deg_per_g = -2;          // self-steering gradient of a road vehicle
   double eg_max_deg_per_g = 12;
   double eg_rel_se_max = 0.5;            // sigma(EG) / |EG| above this: not determined ...
@@ -236,6 +241,10 @@ struct VehicleConfig {
   // (parameter_box.h); the track widths let the rear wheel speeds give a yaw-rate reference.
   double front_axle_load_kg = 0, rear_axle_load_kg = 0;
   double track_front_m = 0, track_rear_m = 0;
+  // The steering role carries the road wheels' angle instead of the steering wheel's
+  // (vehicle.steering_angle_at: road_wheels; a research car's or a simulator's export): the steer
+  // ratio is then about 1, and the parameter box and the steer-ratio check say so.
+  bool road_wheel_angle = false;
 };
 
 struct Config {
