@@ -430,7 +430,7 @@ void Register(CLI::App& parent, int& exit_code) {
   cmd->add_option("--log", args->logs, "Log files (default: source.logs of the configuration)");
   cmd->add_option("--effects", args->effects, "Starting effects, comma-separated (default: model.effects; 'none' = base)");
   cmd->add_option("--candidates", args->candidates, "Candidate effects, comma-separated: replace the library's default candidates, or with a '+' on every name (+my_formula) add to them (default: every library effect)");
-  cmd->add_option("--max-steps", args->max_steps, "Most effects the ladder adds")->capture_default_str();
+  cmd->add_option("--max-steps", args->max_steps, "Most effects the ladder's climb adds (a look-alike or the speed scale from a_x before it and the standstill rung after it come on top)")->capture_default_str();
   cmd->add_option("--z-threshold", args->z_threshold,
                   "Significance filter: |robust score z| a candidate needs before the ladder refits with it")
       ->capture_default_str();
