@@ -34,12 +34,17 @@ Check Explained(const OutputFacts& o, const config::PlausibilityConfig& q) {
   const double to_floor = o.floor > 0 ? o.rmse / o.floor : INFINITY;
   const double to_spread = o.spread > 0 ? o.rmse / o.spread : INFINITY;
   c.value = to_floor;
-  const bool floor_ok = to_floor <= q.rmse_floor_ratio_max;
+  // Below the negligible share of the spread the floor does not judge (noise-free data).
+  const bool negligible = to_spread <= q.rmse_negligible_spread_ratio;
+  const bool floor_ok = to_floor <= q.rmse_floor_ratio_max || negligible;
   const bool spread_ok = to_spread <= q.rmse_spread_ratio_max;
   c.verdict = floor_ok && spread_ok ? Verdict::kPassed : Verdict::kFailed;
   c.message = Fmt("%s RMSE %.3g %s = %.2f x its noise floor %.3g (accepted <= %.2g) and %.2f of its spread %.3g about zero "
                   "(accepted <= %.2g)", o.output.c_str(), o.rmse, o.unit.c_str(), to_floor, o.floor, q.rmse_floor_ratio_max,
                   to_spread, o.spread, q.rmse_spread_ratio_max);
+  if (negligible && to_floor > q.rmse_floor_ratio_max)
+    c.message += Fmt(": within %.2g of its spread, negligible whatever the floor (noise-free or filtered data)",
+                     q.rmse_negligible_spread_ratio);
   if (!spread_ok)
     c.message += ": the model does not follow the signal (a wrong signal, sign or unit, or a fit that failed)";
   else if (!floor_ok)

@@ -262,7 +262,7 @@ void CheckEstimate(const EstimateFacts& f, const config::PlausibilityConfig& q, 
   if (f.steer_ratio > 0) {
     ratio.value = f.steer_ratio;
     ratio.verdict = f.steer_ratio >= q.steer_ratio_min && f.steer_ratio <= q.steer_ratio_max ? Verdict::kPassed : Verdict::kFailed;
-    ratio.message = Fmt("steady-state steer ratio %.2g (accepted %.2g..%.2g)", f.steer_ratio, q.steer_ratio_min, q.steer_ratio_max);
+    ratio.message = Fmt("steady-state steer ratio %.3g (accepted %.2g..%.2g)", f.steer_ratio, q.steer_ratio_min, q.steer_ratio_max);
     // Near 1 the bus carries the road wheels' angle; near 15 the steering wheel's.
     if (ratio.verdict == Verdict::kFailed)
       ratio.message += f.steer_ratio > q.steer_ratio_max

@@ -218,6 +218,9 @@ void ReadPlausibility(const YamlReader& p, PlausibilityConfig& q) {
   // The checks of the fit (adequacy/fit_checks.h).
   q.rmse_floor_ratio_max = Ranged(p, "rmse_floor_ratio_max", q.rmse_floor_ratio_max, 1, 1000);
   q.rmse_spread_ratio_max = Ranged(p, "rmse_spread_ratio_max", q.rmse_spread_ratio_max, 0.01, 10);
+  q.rmse_negligible_spread_ratio = Ranged(p, "rmse_negligible_spread_ratio", q.rmse_negligible_spread_ratio, 0, 1);
+  if (q.rmse_negligible_spread_ratio >= q.rmse_spread_ratio_max)
+    p.Fail("rmse_negligible_spread_ratio", "must be below rmse_spread_ratio_max");
   q.bound_shift_sigma_max = Ranged(p, "bound_shift_sigma_max", q.bound_shift_sigma_max, 0.01, 1000);
   q.steady_state_z_max = Ranged(p, "steady_state_z_max", q.steady_state_z_max, 0.1, 1000);
   q.steady_state_rel_bias = Ranged(p, "steady_state_rel_bias", q.steady_state_rel_bias, 0, 10);

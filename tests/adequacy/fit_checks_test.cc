@@ -78,6 +78,25 @@ TEST(FitChecks, AResidualFarAboveItsFloorIsUnexplainedStructure) {
   EXPECT_EQ(Find(Checked(f), "explained_a_y").verdict, Verdict::kPassed);
 }
 
+// Noise-free data (a simulator's output without sensor noise): the white floor is the DBC's
+// quantisation, and a residual of 1 % of the signal lies many floors above it. Below 5 % of the
+// spread the floor does not judge; above it, it does again.
+TEST(FitChecks, AResidualNegligibleAgainstTheSignalPassesWhateverTheFloor) {
+  FitFacts f = Good();
+  f.outputs[0].rmse = 0.0162;
+  f.outputs[0].floor = 0.0023;  // 7x
+  f.outputs[0].spread = 0.93;   // 1.7 %
+  const Check& c = Find(Checked(f), "explained_a_y");
+  EXPECT_EQ(c.verdict, Verdict::kPassed) << c.message;
+  EXPECT_NEAR(c.value, 0.0162 / 0.0023, 1e-9);
+  EXPECT_NE(c.message.find("negligible whatever the floor"), std::string::npos) << c.message;
+  f.outputs[0].rmse = 0.06;  // 6.5 % of the spread, 26x the floor
+  const Check& above = Find(Checked(f), "explained_a_y");
+  EXPECT_EQ(above.verdict, Verdict::kFailed) << above.message;
+  EXPECT_NE(above.message.find("structure the model lacks"), std::string::npos) << above.message;
+  EXPECT_EQ(Find(Checked(Good()), "explained_a_y").message.find("negligible"), std::string::npos);  // judged by its floor
+}
+
 TEST(FitChecks, AParameterOnItsBoundFailsOnlyWhenReleasingItWouldMoveEg) {
   FitFacts f = Good();  // sigma(EG) 0.01 deg/g
   f.at_bound = {{.name = "Jz", .value = 3200, .eg_correlation = 0.05, .eg_shift_deg_per_g = 0.001}};

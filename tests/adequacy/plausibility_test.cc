@@ -123,7 +123,18 @@ TEST(Plausibility, EstimateChecks) {
   const PlausibilityReport rad = run({.steer_ratio = 850, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.05, .free_params = 5});
   EXPECT_FALSE(rad.passed());
   EXPECT_FALSE(rad.undetermined());
-  EXPECT_NE(rad.Reason().find("steer ratio 850.0"), std::string::npos) << rad.Reason();
+  EXPECT_NE(rad.Reason().find("steer ratio 850 "), std::string::npos) << rad.Reason();
+  // A road-wheel angle configured as a steering wheel's (ratio 1), and the other way round.
+  const PlausibilityReport road = run({.steer_ratio = 1.0, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.05, .free_params = 5});
+  EXPECT_NE(road.Reason().find("vehicle.steering_angle_at: road_wheels"), std::string::npos) << road.Reason();
+  config::PlausibilityConfig rq;
+  rq.steer_ratio_min = config::PlausibilityConfig::kRoadWheelSteerRatioMin;
+  rq.steer_ratio_max = config::PlausibilityConfig::kRoadWheelSteerRatioMax;
+  PlausibilityReport wheel, right;
+  CheckEstimate({.steer_ratio = 14.5, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.05, .free_params = 5}, rq, wheel);
+  EXPECT_NE(wheel.Reason().find("vehicle.steering_angle_at: steering_wheel"), std::string::npos) << wheel.Reason();
+  CheckEstimate({.steer_ratio = 1.02, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.05, .free_params = 5}, rq, right);
+  EXPECT_TRUE(right.passed()) << right.Reason();
   // Strong oversteer is out of the road-vehicle range.
   EXPECT_FALSE(run({.steer_ratio = 15, .eg_deg_per_g = -5, .eg_se_deg_per_g = 0.1, .free_params = 5}).passed());
   // Parameters on bounds alone make it undetermined.

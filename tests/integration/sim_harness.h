@@ -52,6 +52,7 @@ struct ReplayTweaks {
   double frame_loss_pct = 0;
   double timeout_s = 0;
   int parking_turns = 0;  // simulator: road.parking_turns (tight turns at walking pace)
+  bool noise_free = false;  // simulator: no sensor noise and no a_y disturbance (only the DBC's quantisation)
   std::vector<std::string> alternatives;  // model.alternatives
   std::vector<config::FormulaSpec> formulas;  // model.formulas
 };
@@ -76,6 +77,10 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.sim.bus.message_cycle_ms = tweaks.message_cycle_ms;
   run.sim.bus.frame_loss_pct = tweaks.frame_loss_pct;
   run.sim.road.parking_turns = tweaks.parking_turns;
+  if (tweaks.noise_free) {
+    const double tau = run.sim.noise.lat_accel_disturbance_tau_s;
+    run.sim.noise = config::SimNoise{0, 0, 0, 0, 0, 0, tau};
+  }
   const std::string src = NDSID_SOURCE_DIR;
   run.config = std::make_unique<config::Config>(config::LoadConfig(src + "/config/example_vehicle.yaml"));
   run.config->model_effects = model_effects;

@@ -193,6 +193,10 @@ struct PlausibilityConfig {
   // Checks of the fit (adequacy/fit_checks.h, docs/monitoring.md):
   double rmse_floor_ratio_max = 5;       // held-out RMSE / the output's noise floor (white part of the residual)
   double rmse_spread_ratio_max = 0.5;    // held-out RMSE / the measured output's spread about zero
+  // A held-out RMSE below this share of the output's spread passes the floor test whatever the
+  // floor: noise-free data (a simulator's output) or a filtered sensor have a white floor near 0,
+  // and a residual of a few per cent of the signal is no model failure there.
+  double rmse_negligible_spread_ratio = 0.05;
   double bound_shift_sigma_max = 1.0;    // EG's move were the bounds released, in sigma(EG)
   double steady_state_z_max = 3;         // |dynamic EG - steady-state EG| / combined sigma
   double steady_state_rel_bias = 0.1;    // the steady-state regression's bias allowance, share of |EG|
