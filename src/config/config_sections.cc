@@ -198,7 +198,7 @@ void ReadAdequacy(const YamlReader& a, AdequacyConfig& adequacy) {
 }
 
 void ReadPlausibility(const YamlReader& p, PlausibilityConfig& q) {
-  // q arrives with the vehicle's defaults (RoadWheelPlausibility for a road-wheel angle).
+  // q arrives with the vehicle's defaults (ParseConfigText: the steer-ratio range of a road-wheel angle).
   q.kinematic_gain_min = Ranged(p, "kinematic_gain_min", q.kinematic_gain_min, 0.01, 1);
   q.kinematic_gain_max = Ranged(p, "kinematic_gain_max", q.kinematic_gain_max, 1, 100);
   q.kinematic_correlation_min = Ranged(p, "kinematic_correlation_min", q.kinematic_correlation_min, 0, 1);

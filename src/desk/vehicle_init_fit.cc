@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ndsid/config/config.h"
 #include "vehicle_init_detail.h"
 
 namespace ndsid::desk::init_detail {
@@ -130,17 +131,22 @@ struct SteerReading {
   bool road_wheels;  // the nearer range is the road wheels'
 };
 
+// The road wheels' range is the steer-ratio check's for them (config::PlausibilityConfig).
+constexpr double kRoadMin = config::PlausibilityConfig::kRoadWheelSteerRatioMin;
+constexpr double kRoadMax = config::PlausibilityConfig::kRoadWheelSteerRatioMax;
+
 SteerReading ReadSteerRatio(double is) {
   const double wheel = std::max({0.0, std::log(10.0 / is), std::log(is / 25.0)});
-  const double road = std::max({0.0, std::log(0.7 / is), std::log(is / 1.5)});
+  const double road = std::max({0.0, std::log(kRoadMin / is), std::log(is / kRoadMax)});
   return road < wheel ? SteerReading{road, true} : SteerReading{wheel, false};
 }
 
 std::string SteerRatioText(double is, bool road_wheels) {
   if (road_wheels)
-    return is < 0.7 || is > 1.5 ? fmt::format("steer ratio {:.2f} outside 0.7..1.5: check the unit", is)
-                                : fmt::format("steer ratio {:.2f}: the road wheels' angle, not the steering wheel's "
-                                              "(vehicle.steering_angle_at: road_wheels)", is);
+    return is < kRoadMin || is > kRoadMax
+               ? fmt::format("steer ratio {:.2f} outside {:g}..{:g}: check the unit", is, kRoadMin, kRoadMax)
+               : fmt::format("steer ratio {:.2f}: the road wheels' angle, not the steering wheel's "
+                             "(vehicle.steering_angle_at: road_wheels)", is);
   return is < 10.0 || is > 25.0 ? fmt::format("steer ratio {:.1f} outside 10..25: check the unit", is) : std::string();
 }
 
