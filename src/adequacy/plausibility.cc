@@ -271,7 +271,8 @@ void CheckEstimate(const EstimateFacts& f, const config::PlausibilityConfig& q, 
                                   : ": is steering_wheel_angle in rad but configured in deg, or vice versa?")
                            : (f.steer_ratio < 2.5 ? ": is steering_wheel_angle the road wheels' angle (vehicle.steering_angle_at: "
                                                     "road_wheels), or its unit wrong?"
-                                                  : ": is steering_wheel_angle in deg but configured in rad, or vice versa?");
+                                                  : ": neither a unit mistake (x57) nor a road-wheel angle (about 1): too little "
+                                                    "steady turning to fix the ratio, or a wrong vehicle.wheelbase_m?");
   } else {
     ratio.message = "steady-state steer ratio: skipped (no steady-state estimate yet)";
   }

@@ -127,6 +127,9 @@ TEST(Plausibility, EstimateChecks) {
   // A road-wheel angle configured as a steering wheel's (ratio 1), and the other way round.
   const PlausibilityReport road = run({.steer_ratio = 1.0, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.05, .free_params = 5});
   EXPECT_NE(road.Reason().find("vehicle.steering_angle_at: road_wheels"), std::string::npos) << road.Reason();
+  // Below the range but far from both (60 s of straight highway: the ratio is not fixed by the data).
+  const PlausibilityReport low = run({.steer_ratio = 5.85, .eg_deg_per_g = 3, .eg_se_deg_per_g = 0.05, .free_params = 5});
+  EXPECT_NE(low.Reason().find("neither a unit mistake"), std::string::npos) << low.Reason();
   config::PlausibilityConfig rq;
   rq.steer_ratio_min = config::PlausibilityConfig::kRoadWheelSteerRatioMin;
   rq.steer_ratio_max = config::PlausibilityConfig::kRoadWheelSteerRatioMax;
