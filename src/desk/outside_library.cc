@@ -51,9 +51,13 @@ OutsideLibrary Judge(const GainView& view, const std::string& output, bool yaw) 
                              : "model:\n  formulas:\n    a_y_gain:\n      a_y_meas: \"a_y*(1 + s)\"\n      parameters:\n        s: {min: -0.2, max: 0.2}\n";
   } else {
     o.signature = "not a gain";
-    o.text = "not one of my effects, and not a gain: the " + output + " error's gain per speed band agrees (" + gains +
-             "), so what is left is an offset, a lag or a nonlinearity the library lacks (compare's bins by a_y, "
-             "steering rate and speed show where)";
+    o.text = gains.empty()
+                 ? "not one of my effects: no speed band has turning enough to judge the " + output +
+                       " error's gain, so what is left is an offset, a lag, a nonlinearity or a gain the library lacks "
+                       "(compare's bins by a_y, steering rate and speed show where)"
+                 : "not one of my effects, and not a gain: the " + output + " error's gain per speed band agrees (" + gains +
+                       "), so what is left is an offset, a lag or a nonlinearity the library lacks (compare's bins by a_y, "
+                       "steering rate and speed show where)";
   }
   return o;
 }

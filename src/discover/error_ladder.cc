@@ -435,9 +435,8 @@ void ErrorLadder::Judge() {
     if (std::find(unsettled.begin(), unsettled.end(), t->effect) == unsettled.end()) unsettled.push_back(t->effect);
   if (!ladder_.eg_unsettled.empty()) spdlog::warn("ladder: {}", ladder_.eg_unsettled);
   const identify::SegmentList& judged = validation_.empty() ? training_ : validation_;
-  ladder_.verdicts = JudgeOutputs(current_, fit_.AllValues(), judged, fit_.yaw_rate_output, options_.unexplained_ratio,
-                                  YawShiftSamples(ladder_.alignment, judged), options_.a_y_floor_factor,
-                                  options_.yaw_floor_factor, !validation_.empty());
+  ladder_.verdicts = JudgeOutputs(current_, fit_.AllValues(), judged, fit_.yaw_rate_output, options_,
+                                  YawShiftSamples(ladder_.alignment, judged), !validation_.empty());
   for (const OutputVerdict& v : ladder_.verdicts) spdlog::info("ladder: {}", v.text);
 }
 

@@ -42,7 +42,7 @@ ErrorLadder::Shifted ErrorLadder::ShiftAndRefit(const identify::Identifier& mode
   s.validation = AlignSegments(validation_in_, latencies);
   s.fit = model.Identify(identify::Pointers(s.training), identify::Pointers(s.validation),
                          std::optional<std::vector<double>>(from.AllValues()));
-  s.rejected = s.fit.valid ? AlignmentRejection(from, s.fit, ComparableYaw(s.fit, latencies))
+  s.rejected = s.fit.valid ? AlignmentRejection(from, s.fit, ComparableYaw(s.fit, latencies), options_.min_relative_improvement)
                            : "the model's refit on the shifted data failed: " + s.fit.reason;
   return s;
 }
@@ -55,8 +55,7 @@ double ErrorLadder::ComparableYaw(const IdentificationResult& fit, const std::ve
 // The yaw rate's noise (its floor, JudgeOutputs) on the data as recorded, for ComparableYaw.
 void ErrorLadder::MeasureYawNoise() {
   if (!fit_.yaw_rate_output) return;
-  for (const OutputVerdict& v : JudgeOutputs(current_, fit_.AllValues(), RecordedHeldOut(), true, options_.unexplained_ratio, 0.0,
-                                             options_.a_y_floor_factor, options_.yaw_floor_factor)) {
+  for (const OutputVerdict& v : JudgeOutputs(current_, fit_.AllValues(), RecordedHeldOut(), true, options_)) {
     if (v.output == "yaw rate") yaw_noise_sd_ = v.floor * M_PI / 180.0;
   }
 }

@@ -75,10 +75,13 @@ double HeldOutChange(const identify::IdentificationResult& before, const identif
 // than 0.2 % (the shifted data lose a few samples at the segments' ends) and the outputs'
 // relative changes sum to a fall; the aligned yaw rate's RMSE is yaw_aligned, its
 // ComparableYawRmse. A shift found on a failing model (an effect outside the model reads as a
-// lead or lag) otherwise pre-empts the effect and makes the held-out error worse.
+// lead or lag) otherwise pre-empts the effect and makes the held-out error worse. With no drive
+// held out the errors judged are the training data's, which any free shift lowers a little:
+// the shifts must then lower an output's RMSE by training_margin, as an effect must
+// (HeldOutImproves with the ladder's min_relative_improvement).
 // "" when kept, else why not, in words.
 std::string AlignmentRejection(const identify::IdentificationResult& recorded, const identify::IdentificationResult& aligned,
-                               double yaw_aligned);
+                               double yaw_aligned, double training_margin);
 
 // The determination rule (LadderOptions::determined_z): the effect's parameters in `fit` (but the
 // per-drive and fixed ones) are told from their neutral values. One parameter: it lies more than z

@@ -13,11 +13,13 @@ namespace {
 struct ResidualSums {
   double ss = 0;  // sum e_k^2
   double dd = 0;  // sum (e_k - e_k-1)^2 within chunks
+  double mm = 0;  // sum y_k^2 of the measured output
   size_t n = 0;   // residuals
   size_t nd = 0;  // first differences
-  void Add(const std::vector<double>& e) {
+  void Add(const std::vector<double>& e, const std::vector<double>& y) {
     for (size_t k = 0; k < e.size(); ++k) {
       ss += e[k] * e[k];
+      mm += y[k] * y[k];
       if (k > 0) dd += (e[k] - e[k - 1]) * (e[k] - e[k - 1]);
     }
     n += e.size();
@@ -27,16 +29,19 @@ struct ResidualSums {
 
 // The verdict on one output; g: the floor's correction for a read between samples (1: none);
 // slow: its factor for a role slower than the fit (1: none).
-OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, double to_unit, double ratio_limit, double g,
+OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, double to_unit, const LadderOptions& o, double g,
                     double slow, const char* which) {
+  const double ratio_limit = o.unexplained_ratio;
   OutputVerdict v;
   v.output = name;
   v.unit = unit;
   v.residuals = s.n;
   v.rmse = to_unit * std::sqrt(s.ss / static_cast<double>(s.n));
   v.floor = slow * to_unit * std::sqrt(s.dd / (2.0 * static_cast<double>(s.nd)) / g);
+  v.spread = to_unit * std::sqrt(s.mm / static_cast<double>(s.n));
   v.ratio = v.floor > 0 ? v.rmse / v.floor : 0.0;
-  v.unexplained = v.floor > 0 && v.ratio > ratio_limit;
+  const bool negligible = v.spread > 0 && v.rmse <= o.negligible_spread_ratio * v.spread;
+  v.unexplained = v.floor > 0 && v.ratio > ratio_limit && !negligible;
   char buf[400];
   if (v.unexplained) {
     std::snprintf(buf, sizeof buf,
@@ -49,6 +54,9 @@ OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, d
                   name, which, v.rmse, unit, v.ratio, v.floor, unit, ratio_limit);
   }
   v.text = buf;
+  if (negligible && v.ratio > ratio_limit)
+    v.text += Fmt(": %.2g of its spread %.4g %s, negligible whatever the floor (noise-free or filtered data)",
+                  v.rmse / v.spread, v.spread, unit);
   if (slow > 1) v.text += Fmt(" (its floor x %.2f: its values come %.2f fit samples apart)", slow, slow);
   return v;
 }
@@ -56,25 +64,26 @@ OutputVerdict Judge(const ResidualSums& s, const char* name, const char* unit, d
 }  // namespace
 
 std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, const std::vector<double>& params,
-                                        const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit,
-                                        double yaw_shift_samples, double a_y_floor_factor, double yaw_floor_factor,
-                                        bool held_out) {
+                                        const identify::SegmentList& segments, bool yaw_rate_output,
+                                        const LadderOptions& options, double yaw_shift_samples, bool held_out) {
   const char* which = held_out ? "held-out" : "training (no drive held out)";
   ResidualSums a, r;
   for (const identify::ChunkOutput& c : identify::SimulateChunks(identifier, params, segments)) {
-    std::vector<double> ea, er;
+    std::vector<double> ea, er, ya, yr;
     bool yaw_finite = yaw_rate_output && c.yaw_rate_model_radps.size() == c.n;
     for (size_t k = c.burn_in; k < c.n; ++k) {
       const stats::SegmentSample& s = c.segment->samples[c.first + k];
-      ea.push_back(static_cast<double>(s.lat_accel_mps2) - c.a_y_model_mps2[k]);
+      ya.push_back(static_cast<double>(s.lat_accel_mps2));
+      ea.push_back(ya.back() - c.a_y_model_mps2[k]);
       if (yaw_finite) {
-        const double e = static_cast<double>(s.yaw_rate_radps) - c.yaw_rate_model_radps[k];
+        yr.push_back(static_cast<double>(s.yaw_rate_radps));
+        const double e = yr.back() - c.yaw_rate_model_radps[k];
         yaw_finite = std::isfinite(e);
         er.push_back(e);
       }
     }
-    a.Add(ea);
-    if (yaw_finite) r.Add(er);
+    a.Add(ea, ya);
+    if (yaw_finite) r.Add(er, yr);
   }
   std::vector<OutputVerdict> out;
   // White noise read at a fraction w between samples, (1-w) e_k + w e_k+1, has first differences
@@ -83,8 +92,8 @@ std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, 
   // floor uncorrected.
   const double w = yaw_shift_samples - std::floor(yaw_shift_samples);
   const double g_yaw = ((1 - w) * (1 - w) + (1 - 2 * w) * (1 - 2 * w) + w * w) / 2;
-  if (a.nd > 0) out.push_back(Judge(a, "a_y", "m/s^2", 1.0, ratio_limit, 1.0, a_y_floor_factor, which));
-  if (r.nd > 0) out.push_back(Judge(r, "yaw rate", "deg/s", 180.0 / M_PI, ratio_limit, g_yaw, yaw_floor_factor, which));
+  if (a.nd > 0) out.push_back(Judge(a, "a_y", "m/s^2", 1.0, options, 1.0, options.a_y_floor_factor, which));
+  if (r.nd > 0) out.push_back(Judge(r, "yaw rate", "deg/s", 180.0 / M_PI, options, g_yaw, options.yaw_floor_factor, which));
   return out;
 }
 

@@ -159,6 +159,11 @@ struct LadderOptions {
   // After the ladder stops, an output whose held-out RMSE is more than this times its noise
   // floor (the white part of its residual) is reported unexplained (OutputVerdict).
   double unexplained_ratio = 1.5;
+  // ... unless its held-out RMSE is below this share of the output's spread about zero (its
+  // measured root mean square): negligible whatever the floor, as the replay's explained_<output>
+  // check (plausibility.rmse_negligible_spread_ratio). Noise-free data have a floor of the
+  // DBC's quantisation, which a residual of 1 % of the signal exceeds many times.
+  double negligible_spread_ratio = 0.05;
   // Each output's noise-floor factor for a role slower than the fit
   // (identify::SlowOutputFloorFactor of its mean frame interval; 1: at the fit's rate or faster).
   double a_y_floor_factor = 1.0;
@@ -181,21 +186,21 @@ struct OutputVerdict {
   double rmse = 0;     // held-out (training when nothing is held out; the text says which)
   double floor = 0;
   double ratio = 0;    // rmse / floor
+  double spread = 0;   // the measured output's root mean square about zero, over the same samples
   size_t residuals = 0;
   bool unexplained = false;
   std::string text;    // the verdict in words, with the numbers
 };
 
 // The verdict for each output the fit scores (the yaw rate only when it is an output) of the
-// model `identifier.spec()` at `params` over `segments`. yaw_shift_samples: the shift step 0
-// applied to the measured yaw rate, in samples (0: none): reading it between samples averages
-// neighbouring noise, which lowers the first-difference floor; the floor is corrected for it.
-// a_y_floor_factor, yaw_floor_factor: the floors' factors for roles slower than the fit
-// (LadderOptions).
+// model `identifier.spec()` at `params` over `segments`, by the limits of `options`
+// (unexplained_ratio, negligible_spread_ratio, the floors' factors for roles slower than the
+// fit). yaw_shift_samples: the shift step 0 applied to the measured yaw rate, in samples (0:
+// none): reading it between samples averages neighbouring noise, which lowers the
+// first-difference floor; the floor is corrected for it.
 std::vector<OutputVerdict> JudgeOutputs(const identify::Identifier& identifier, const std::vector<double>& params,
-                                        const identify::SegmentList& segments, bool yaw_rate_output, double ratio_limit,
-                                        double yaw_shift_samples = 0, double a_y_floor_factor = 1.0,
-                                        double yaw_floor_factor = 1.0, bool held_out = true);
+                                        const identify::SegmentList& segments, bool yaw_rate_output,
+                                        const LadderOptions& options, double yaw_shift_samples = 0, bool held_out = true);
 
 // One candidate refitted by the ladder: what it did to the held-out error, and why it was kept
 // or rejected (the stop message's "no candidate improved" lists these).

@@ -264,7 +264,7 @@ void ReportVerdicts(const discover::Ladder& ladder, DiagnoseReport& r) {
       std::printf("  %s\n", v.text.c_str());
       r.md += std::string("- ") + (v.unexplained ? "**" : "") + v.text + (v.unexplained ? "**" : "") + "\n";
       r.j["verdicts"].push_back({{"output", v.output}, {"unit", v.unit}, {"rmse", v.rmse}, {"noise_floor", v.floor},
-                                 {"ratio", v.ratio}, {"residuals", v.residuals}, {"unexplained", v.unexplained}, {"text", v.text}});
+                                 {"ratio", v.ratio}, {"spread", v.spread}, {"residuals", v.residuals}, {"unexplained", v.unexplained}, {"text", v.text}});
     }
   }
   r.j["eg_unsettled"] = ladder.eg_unsettled;
@@ -364,6 +364,7 @@ discover::LadderOptions MakeLadderOptions(const DiagnoseArgs& a, const Candidate
   opt.diagnosis.candidates_extend_library = candidates.extend;
   opt.diagnosis.z_threshold = a.z_threshold;
   opt.unexplained_ratio = a.unexplained_ratio;
+  opt.negligible_spread_ratio = data.config.plausibility.rmse_negligible_spread_ratio;
   const double rate_hz = data.config.identification.rate_hz;
   opt.a_y_floor_factor = identify::SlowOutputFloorFactor(data.window.a_y_interval_s, rate_hz);
   opt.yaw_floor_factor = identify::SlowOutputFloorFactor(data.window.yaw_rate_interval_s, rate_hz);
