@@ -99,26 +99,29 @@ Check SteadyState(const FitFacts& f, const config::PlausibilityConfig& q) {
 Check Halves(const FitFacts& f, const config::PlausibilityConfig& q) {
   Check c{.name = "halves"};
   if (!f.halves) {
-    c.message = Fmt("EG of two halves of the window: skipped (%d drive%s; needs 2)", f.window_drives, f.window_drives == 1 ? "" : "s");
+    c.message = Fmt("EG of two halves of the window: skipped (%d drive%s; needs 2, or one with two segments)", f.window_drives,
+                    f.window_drives == 1 ? "" : "s");
     return c;
   }
   const HalfFacts& a = f.halves->first;
   const HalfFacts& b = f.halves->second;
+  const std::string how = a.in_time ? Fmt("the one drive's earlier and later gated time, %zu and %zu chunks", a.chunks, b.chunks)
+                                    : Fmt("alternate drives, %d and %d", a.drives, b.drives);
   if (!a.valid || !b.valid) {
     c.verdict = Verdict::kFailed;
-    c.message = "EG of two halves of the window (alternate drives): a half's fit is not valid (" + (a.valid ? b.reason : a.reason) +
-                ")";
+    c.message = "EG of two halves of the window (" + how + "): a half's fit is not valid (" + (a.valid ? b.reason : a.reason) + ")";
     return c;
   }
   const double d = a.eg_deg_per_g - b.eg_deg_per_g;
   const double s = std::hypot(a.eg_se_deg_per_g, b.eg_se_deg_per_g);
   c.value = s > 0 ? d / s : INFINITY;
   c.verdict = std::abs(c.value) <= q.halves_z_max ? Verdict::kPassed : Verdict::kFailed;
-  c.message = Fmt("EG of two halves (alternate drives, %d and %d): %.2f +- %.2f and %.2f +- %.2f deg/g, %+.2f combined sigma "
-                  "(accepted <= %.1f)", a.drives, b.drives, a.eg_deg_per_g, a.eg_se_deg_per_g, b.eg_deg_per_g, b.eg_se_deg_per_g,
-                  c.value, q.halves_z_max);
+  c.message = Fmt("EG of two halves (%s): %.2f +- %.2f and %.2f +- %.2f deg/g, %+.2f combined sigma (accepted <= %.1f)",
+                  how.c_str(), a.eg_deg_per_g, a.eg_se_deg_per_g, b.eg_deg_per_g, b.eg_se_deg_per_g, c.value, q.halves_z_max);
   if (c.verdict == Verdict::kFailed)
-    c.message += ": EG depends on which drives are fitted (its sigma is too small for the data, or the drives differ)";
+    c.message += a.in_time ? ": EG depends on which part of the drive is fitted (its sigma is too small for the data, or the car "
+                             "or the road changed during the drive)"
+                           : ": EG depends on which drives are fitted (its sigma is too small for the data, or the drives differ)";
   return c;
 }
 

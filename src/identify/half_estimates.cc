@@ -30,6 +30,7 @@ HalfEstimate EstimateHalf(const HalfMoments& own, const HalfMoments& other, cons
   HalfEstimate h;
   h.drives = own.drives;
   h.chunks = own.chunks;
+  h.in_time = own.in_time;
   if (own.chunks == 0) {
     h.reason = "no chunk in this half";
     return h;
@@ -58,8 +59,12 @@ HalfEstimate EstimateHalf(const HalfMoments& own, const HalfMoments& other, cons
   const Eigen::VectorXd hinv_g = ldlt.solve(g);
   double var = c.noise_level * g.dot(hinv_g);
   if (own.chunks >= 10) {
+    // The chunks' scores are taken at the whole window's estimate, where this half's sum to
+    // own.score, not at its own optimum, where they sum to about zero: centred, their spread is
+    // the half's, not the halves' disagreement (which would widen the very sigma that judges it).
     const double k = static_cast<double>(own.chunks);
-    const double cluster = hinv_g.dot(Block(own.meat, c.free) * hinv_g) * k / (k - 1);
+    const Eigen::MatrixXd centred = own.meat - own.score * own.score.transpose() / k;
+    const double cluster = hinv_g.dot(Block(centred, c.free) * hinv_g) * k / (k - 1);
     var = std::max(var, cluster);
   }
   h.eg_se_rad_per_mps2 = std::sqrt(std::max(0.0, var));

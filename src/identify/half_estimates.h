@@ -1,4 +1,5 @@
-// EG of two disjoint halves of the window (alternate training drives), from the whole window's
+// EG of two disjoint halves of the window (alternate training drives; a single drive's earlier
+// and later gated time), from the whole window's
 // estimate without refitting: each half's chunks' Gauss-Newton moments at the estimate (J'J,
 // scores J'e, and the scores' outer products for the cluster-robust variance) give its optimum by
 // one Newton step, and its EG and standard error as the whole window's are computed. The whole
@@ -25,6 +26,7 @@ struct HalfMoments {
   Eigen::MatrixXd meat;   // sum over chunks of (J'e)(J'e)'
   size_t chunks = 0;
   int drives = 0;
+  bool in_time = false;  // the one drive's earlier or later gated time, not alternate drives
   void Init(int np) {
     jtj = Eigen::MatrixXd::Zero(np, np);
     score = Eigen::VectorXd::Zero(np);

@@ -13,16 +13,46 @@
 namespace ndsid::identify {
 namespace {
 
-// The two halves of the window (alternate training drives, in drive order) for the checks of the
-// fit (half_estimates.h): each drive's half.
-std::map<int64_t, int> HalfOfDrive(const SegmentList& training) {
-  std::map<int64_t, int> half_of_drive;
+// The two halves of the window for the checks of the fit (half_estimates.h): alternate training
+// drives, in drive order; with a single drive (one recording), its earlier and its later gated
+// time, split at the segment start that balances their durations best (none with one segment).
+struct HalfSplit {
+  std::map<int64_t, int> of_drive;  // two or more drives: each drive's half
+  bool in_time = false;             // one drive: by the segments' start times
+  int64_t split_ns = 0;             // ... the later half's first segment start
+  int Of(const stats::Segment& seg) { return in_time ? (seg.t0_ns < split_ns ? 0 : 1) : of_drive[seg.drive_id]; }
+};
+
+HalfSplit SplitHalves(const SegmentList& training, HalfMoments (&halves)[2]) {
+  HalfSplit split;
   std::set<int64_t> ids;
-  for (const stats::Segment* seg : training)
-    if (seg) ids.insert(seg->drive_id);
-  int k = 0;
-  for (int64_t id : ids) half_of_drive[id] = k++ % 2;
-  return half_of_drive;
+  std::vector<std::pair<int64_t, double>> starts;  // (t0, duration) of each segment
+  for (const stats::Segment* seg : training) {
+    if (!seg) continue;
+    ids.insert(seg->drive_id);
+    starts.emplace_back(seg->t0_ns, seg->duration_s());
+  }
+  if (ids.size() >= 2) {
+    int k = 0;
+    for (int64_t id : ids) split.of_drive[id] = k++ % 2;
+    for (const auto& [id, h] : split.of_drive) ++halves[h].drives;
+    return split;
+  }
+  std::sort(starts.begin(), starts.end());
+  double total = 0;
+  for (const auto& st : starts) total += st.second;
+  double before = 0, best = INFINITY;
+  for (size_t i = 1; i < starts.size(); ++i) {
+    before += starts[i - 1].second;
+    if (starts[i].first == starts[i - 1].first || !(std::abs(2 * before - total) < best)) continue;
+    best = std::abs(2 * before - total);
+    split.split_ns = starts[i].first;
+    split.in_time = true;
+  }
+  if (split.in_time) halves[0].drives = halves[1].drives = 1;
+  else if (!ids.empty()) split.of_drive[*ids.begin()] = 0, halves[0].drives = 1;
+  halves[0].in_time = halves[1].in_time = split.in_time;
+  return split;
 }
 
 // One simulated chunk at the optimum.
@@ -35,7 +65,7 @@ struct AtOptimum {
 // Each simulated chunk's residuals, J'J and score, computed on the configured threads, then added
 // up in chunk order (the same sums for any number of threads).
 void SumSimulated(const FitProblem& fit, const std::vector<double>& theta, bool keep, bool two_outputs,
-                  std::map<int64_t, int>& half_of_drive, OptimumSums& s) {
+                  HalfSplit& half_of, OptimumSums& s) {
   const auto& costs = fit.costs;
   const int np = static_cast<int>(theta.size());
   const OutputWeights& weights = *fit.weights;
@@ -63,7 +93,7 @@ void SumSimulated(const FitProblem& fit, const std::vector<double>& theta, bool 
     std::vector<double>& e = at[ci].e;
     Eigen::Map<const Eigen::VectorXd> ev(e.data(), static_cast<long>(e.size()));
     s.jtj += at[ci].jtj;
-    s.halves[half_of_drive[fit.chunk_segment[ci]->drive_id]].AddChunk(at[ci].jtj, at[ci].score);
+    s.halves[half_of.Of(*fit.chunk_segment[ci])].AddChunk(at[ci].jtj, at[ci].score);
     s.chunk_scores.push_back(std::move(at[ci].score));
     s.rss += ev.squaredNorm();
     const auto split = e.begin() + static_cast<long>(fit.n_a[ci]);
@@ -83,7 +113,7 @@ void SumSimulated(const FitProblem& fit, const std::vector<double>& theta, bool 
 // The prior's chunks: their quadratics at the estimate (J'J, score, sum of squares), their
 // per-output sums of squares and autocorrelation sums as when they were last simulated.
 void SumPrior(const IncrementalPrior& prior, const std::vector<double>& theta, double burn_in_s,
-              std::map<int64_t, int>& half_of_drive, OptimumSums& s, IdentificationResult& r) {
+              HalfSplit& half_of, OptimumSums& s, IdentificationResult& r) {
   const int np = static_cast<int>(theta.size());
   for (const auto& e : s.series_a) AddAutocorrelationSums(e, s.acf_a);
   for (const auto& e : s.series_r) AddAutocorrelationSums(e, s.acf_r);
@@ -93,7 +123,7 @@ void SumPrior(const IncrementalPrior& prior, const std::vector<double>& theta, d
       const Eigen::VectorXd d = Eigen::Map<const Eigen::VectorXd>(theta.data(), np) - Eigen::Map<const Eigen::VectorXd>(c.theta.data(), np);
       const Eigen::VectorXd score = Eigen::Map<const Eigen::VectorXd>(c.score.data(), np) + hc * d;
       s.jtj += hc;
-      s.halves[half_of_drive[ps.seg->drive_id]].AddChunk(hc, score);
+      s.halves[half_of.Of(*ps.seg)].AddChunk(hc, score);
       s.chunk_scores.push_back(score);
       s.rss += std::max(0.0, c.rss + 2 * Eigen::Map<const Eigen::VectorXd>(c.score.data(), np).dot(d) + d.dot(hc * d));
       s.rss_a += c.rss_a_y;
@@ -118,13 +148,12 @@ OptimumSums SumAtOptimum(const FitProblem& fit, const IncrementalPrior* prior, c
   s.jtj = Eigen::MatrixXd::Zero(np, np);
   s.n_res = fit.n_res;
   s.n_res_a = fit.n_res_a;
-  std::map<int64_t, int> half_of_drive = HalfOfDrive(training);
   for (HalfMoments& h : s.halves) h.Init(np);
-  for (const auto& [id, h] : half_of_drive) ++s.halves[h].drives;
-  SumSimulated(fit, theta, keep, two_outputs, half_of_drive, s);
+  HalfSplit half_of = SplitHalves(training, s.halves);
+  SumSimulated(fit, theta, keep, two_outputs, half_of, s);
   r.chunks_simulated = fit.chunks.size();
   for (const Chunk& c : fit.chunks) r.train_hours += c.n * c.dt_s / 3600.0;
-  if (prior) SumPrior(*prior, theta, fit.settings.config.burn_in_s, half_of_drive, s, r);
+  if (prior) SumPrior(*prior, theta, fit.settings.config.burn_in_s, half_of, s, r);
   return s;
 }
 

@@ -11,7 +11,8 @@ constexpr size_t kMaxListed = 1'000'000;
 
 nlohmann::json HalfJson(const HalfEstimate& h) {
   return {{"valid", h.valid}, {"reason", h.reason}, {"eg_rad_per_mps2", h.eg_rad_per_mps2},
-          {"eg_se_rad_per_mps2", h.eg_se_rad_per_mps2}, {"drives", h.drives}, {"chunks", h.chunks}};
+          {"eg_se_rad_per_mps2", h.eg_se_rad_per_mps2}, {"drives", h.drives}, {"chunks", h.chunks},
+          {"in_time", h.in_time}};
 }
 
 HalfEstimate HalfFromJson(const JsonIn& in) {
@@ -22,6 +23,7 @@ HalfEstimate HalfFromJson(const JsonIn& in) {
   h.eg_se_rad_per_mps2 = in.Number("eg_se_rad_per_mps2");
   h.drives = static_cast<int>(in.Int64("drives"));
   h.chunks = in.UInt64("chunks");
+  if (in.Has("in_time")) h.in_time = in.Bool("in_time");
   return h;
 }
 

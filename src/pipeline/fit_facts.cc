@@ -85,7 +85,8 @@ adequacy::FitFacts FitFactsOf(const identify::IdentificationResult& fit, const W
   if (fit.halves) {
     auto half = [](const identify::HalfEstimate& h) {
       return adequacy::HalfFacts{.valid = h.valid, .reason = h.reason, .eg_deg_per_g = model::EgToDegPerG(h.eg_rad_per_mps2),
-                                 .eg_se_deg_per_g = model::EgToDegPerG(h.eg_se_rad_per_mps2), .drives = h.drives};
+                                 .eg_se_deg_per_g = model::EgToDegPerG(h.eg_se_rad_per_mps2), .drives = h.drives,
+                                 .chunks = h.chunks, .in_time = h.in_time};
     };
     f.halves = std::make_pair(half(fit.halves->first), half(fit.halves->second));
   }

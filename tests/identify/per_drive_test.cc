@@ -163,7 +163,8 @@ TEST(PerDrive, AModelHoldsOneFormOfAParameter) {
 }
 
 // Catches: per-drive values lost in the one codec, or results written before per-drive
-// parameters were generic ("drive_loads" of load_change) no longer read.
+// parameters were generic ("drive_loads" of load_change) no longer read; the halves' in_time flag
+// kept, and false where an older result lacks it.
 TEST(PerDrive, ValuesSurviveTheCodecAndOldLoadsMigrate) {
   IdentificationResult r;
   r.model = "single-track + road_bank + load_change";
@@ -171,8 +172,13 @@ TEST(PerDrive, ValuesSurviveTheCodecAndOldLoadsMigrate) {
   r.effect_params.push_back({"load_ratio", "-", 1.0, 0.0, true, false});
   r.drive_values = {{3, "load_ratio", 1.0, 0.0, true, false}, {5, "load_ratio", 1.137, 0.002, false, false},
                     {9, "load_ratio", 0.981, 0.004, false, true}};
+  HalfEstimate later;
+  later.in_time = true;  // a single drive's halves in time
+  r.halves = std::make_pair(later, later);
   const nlohmann::json j = ResultToJson(r);
   const IdentificationResult back = ResultFromJson(JsonIn(j, "fit"));
+  ASSERT_TRUE(back.halves);
+  EXPECT_TRUE(back.halves->first.in_time && back.halves->second.in_time);
   ASSERT_EQ(back.drive_values.size(), 3u);
   for (size_t i = 0; i < 3; ++i) {
     EXPECT_EQ(back.drive_values[i].drive_id, r.drive_values[i].drive_id);
@@ -185,9 +191,12 @@ TEST(PerDrive, ValuesSurviveTheCodecAndOldLoadsMigrate) {
   // As written before: no "drive_values", the ratios under "drive_loads".
   nlohmann::json old = j;
   old.erase("drive_values");
+  for (auto& h : old["halves"]) h.erase("in_time");  // halves as written before: alternate drives
   old["drive_loads"] = nlohmann::json::array({{{"drive", 3}, {"ratio", 1.0}, {"se", 0.0}, {"reference", true}, {"held_out", false}},
                                               {{"drive", 5}, {"ratio", 1.137}, {"se", 0.002}, {"reference", false}, {"held_out", false}}});
   const IdentificationResult migrated = ResultFromJson(JsonIn(old, "fit"));
+  ASSERT_TRUE(migrated.halves);
+  EXPECT_FALSE(migrated.halves->first.in_time);
   ASSERT_EQ(migrated.drive_values.size(), 2u);
   EXPECT_EQ(migrated.drive_values[1].param, "load_ratio");
   EXPECT_EQ(migrated.drive_values[1].value, 1.137);

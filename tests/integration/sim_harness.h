@@ -55,6 +55,7 @@ struct ReplayTweaks {
   bool noise_free = false;  // simulator: no sensor noise and no a_y disturbance (only the DBC's quantisation)
   std::vector<std::string> alternatives;  // model.alternatives
   std::vector<config::FormulaSpec> formulas;  // model.formulas
+  double rear_stiffness_factor = 1.0;  // simulator: the car's rear cornering stiffness times this (the truth follows)
 };
 
 inline std::string TempDir(const std::string& name) {
@@ -77,6 +78,7 @@ inline SimulatedRun SimulateAndReplay(const std::string& name, uint64_t seed, do
   run.sim.bus.message_cycle_ms = tweaks.message_cycle_ms;
   run.sim.bus.frame_loss_pct = tweaks.frame_loss_pct;
   run.sim.road.parking_turns = tweaks.parking_turns;
+  run.sim.vehicle.cornering_stiffness_rear_npr *= tweaks.rear_stiffness_factor;
   if (tweaks.noise_free) {
     const double tau = run.sim.noise.lat_accel_disturbance_tau_s;
     run.sim.noise = config::SimNoise{0, 0, 0, 0, 0, 0, tau};

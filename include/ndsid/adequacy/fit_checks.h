@@ -52,6 +52,8 @@ struct HalfFacts {
   std::string reason;      // why not valid
   double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
   int drives = 0;
+  size_t chunks = 0;
+  bool in_time = false;  // a single drive's earlier or later gated time (else alternate drives)
 };
 
 // One attribution of a kinematic scale disagreement to a sensor, refitted with its scale free, or

@@ -1,4 +1,5 @@
-// EG of one half of the window (alternate training drives), fitted from the whole window's
+// EG of one half of the window (alternate training drives; with one drive, its earlier or later
+// gated time), fitted from the whole window's
 // estimate (src/identify/half_estimates.h): what the checks of the fit compare and what widens
 // the published sigma(EG) when the halves disagree.
 #pragma once
@@ -14,6 +15,7 @@ struct HalfEstimate {
   double eg_rad_per_mps2 = 0, eg_se_rad_per_mps2 = 0;
   int drives = 0;
   size_t chunks = 0;
+  bool in_time = false;  // a single drive's earlier or later gated time (else alternate drives)
 };
 
 }  // namespace ndsid::identify
