@@ -99,8 +99,8 @@ Check SteadyState(const FitFacts& f, const config::PlausibilityConfig& q) {
 Check Halves(const FitFacts& f, const config::PlausibilityConfig& q) {
   Check c{.name = "halves"};
   if (!f.halves) {
-    c.message = Fmt("EG of two halves of the window: skipped (%d drive%s; needs 2, or one with two segments)", f.window_drives,
-                    f.window_drives == 1 ? "" : "s");
+    c.message = Fmt("EG of two halves of the window: skipped (%d drive%s; needs 2, or one whose chunks split into two halves "
+                    "of 10)", f.window_drives, f.window_drives == 1 ? "" : "s");
     return c;
   }
   const HalfFacts& a = f.halves->first;

@@ -15,7 +15,11 @@ namespace {
 
 // The two halves of the window for the checks of the fit (half_estimates.h): alternate training
 // drives, in drive order; with a single drive (one recording), its earlier and its later gated
-// time, split at the segment start that balances their durations best (none with one segment).
+// time, split at the segment start that balances their chunks best, when each half then has at
+// least kMinChunksInTime (the cluster-robust sigma's minimum: fewer give a sigma that a drive's
+// own variation overruns; clean data split 5 against 18 chunks read 3 combined sigma apart).
+constexpr size_t kMinChunksInTime = 10;
+
 struct HalfSplit {
   std::map<int64_t, int> of_drive;  // two or more drives: each drive's half
   bool in_time = false;             // one drive: by the segments' start times
@@ -23,31 +27,42 @@ struct HalfSplit {
   int Of(const stats::Segment& seg) { return in_time ? (seg.t0_ns < split_ns ? 0 : 1) : of_drive[seg.drive_id]; }
 };
 
-HalfSplit SplitHalves(const SegmentList& training, HalfMoments (&halves)[2]) {
+// Each segment's chunks (simulated and the prior's), by the segment's start time.
+std::map<int64_t, size_t> ChunksByStart(const FitProblem& fit, const IncrementalPrior* prior) {
+  std::map<int64_t, size_t> out;
+  for (const stats::Segment* seg : fit.chunk_segment)
+    if (seg) ++out[seg->t0_ns];
+  if (prior) {
+    for (const IncrementalPrior::Segment& ps : prior->segments()) out[ps.seg->t0_ns] += ps.lin->chunks.size();
+  }
+  return out;
+}
+
+HalfSplit SplitHalves(const FitProblem& fit, const IncrementalPrior* prior, const SegmentList& training, HalfMoments (&halves)[2]) {
   HalfSplit split;
   std::set<int64_t> ids;
-  std::vector<std::pair<int64_t, double>> starts;  // (t0, duration) of each segment
-  for (const stats::Segment* seg : training) {
-    if (!seg) continue;
-    ids.insert(seg->drive_id);
-    starts.emplace_back(seg->t0_ns, seg->duration_s());
-  }
+  for (const stats::Segment* seg : training)
+    if (seg) ids.insert(seg->drive_id);
   if (ids.size() >= 2) {
     int k = 0;
     for (int64_t id : ids) split.of_drive[id] = k++ % 2;
     for (const auto& [id, h] : split.of_drive) ++halves[h].drives;
     return split;
   }
-  std::sort(starts.begin(), starts.end());
-  double total = 0;
-  for (const auto& st : starts) total += st.second;
-  double before = 0, best = INFINITY;
-  for (size_t i = 1; i < starts.size(); ++i) {
-    before += starts[i - 1].second;
-    if (starts[i].first == starts[i - 1].first || !(std::abs(2 * before - total) < best)) continue;
-    best = std::abs(2 * before - total);
-    split.split_ns = starts[i].first;
-    split.in_time = true;
+  const std::map<int64_t, size_t> chunks = ChunksByStart(fit, prior);
+  size_t total = 0;
+  for (const auto& [t0, n] : chunks) total += n;
+  size_t before = 0;
+  double best = INFINITY;
+  for (const auto& [t0, n] : chunks) {
+    const size_t after = total - before;
+    const double imbalance = std::abs(static_cast<double>(before) - static_cast<double>(after));
+    if (before >= kMinChunksInTime && after >= kMinChunksInTime && imbalance < best) {
+      best = imbalance;
+      split.split_ns = t0;
+      split.in_time = true;
+    }
+    before += n;
   }
   if (split.in_time) halves[0].drives = halves[1].drives = 1;
   else if (!ids.empty()) split.of_drive[*ids.begin()] = 0, halves[0].drives = 1;
@@ -149,7 +164,7 @@ OptimumSums SumAtOptimum(const FitProblem& fit, const IncrementalPrior* prior, c
   s.n_res = fit.n_res;
   s.n_res_a = fit.n_res_a;
   for (HalfMoments& h : s.halves) h.Init(np);
-  HalfSplit half_of = SplitHalves(training, s.halves);
+  HalfSplit half_of = SplitHalves(fit, prior, training, s.halves);
   SumSimulated(fit, theta, keep, two_outputs, half_of, s);
   r.chunks_simulated = fit.chunks.size();
   for (const Chunk& c : fit.chunks) r.train_hours += c.n * c.dt_s / 3600.0;
