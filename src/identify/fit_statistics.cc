@@ -79,7 +79,7 @@ void FitStatistics::Covariance(bool incremental) {
                 sums_.n_res, tau_, sums_.rss, r_.chunks_simulated + r_.chunks_from_prior, r_.chunks_from_prior);
   r_.se_method = method;
   const size_t g = sums_.chunk_scores.size();
-  if (g >= 10) {
+  if (g >= kClusterRobustMinChunks) {
     Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(nf, nf);
     for (const Eigen::VectorXd& sc : sums_.chunk_scores) {
       Eigen::VectorXd sf(nf);

@@ -58,7 +58,7 @@ HalfEstimate EstimateHalf(const HalfMoments& own, const HalfMoments& other, cons
   }
   const Eigen::VectorXd hinv_g = ldlt.solve(g);
   double var = c.noise_level * g.dot(hinv_g);
-  if (own.chunks >= 10) {
+  if (own.chunks >= kClusterRobustMinChunks) {
     // The chunks' scores are taken at the whole window's estimate, where this half's sum to
     // own.score, not at its own optimum, where they sum to about zero: centred, their spread is
     // the half's, not the halves' disagreement (which would widen the very sigma that judges it).

@@ -16,9 +16,8 @@ namespace {
 // The two halves of the window for the checks of the fit (half_estimates.h): alternate training
 // drives, in drive order; with a single drive (one recording), its earlier and its later gated
 // time, split at the segment start that balances their chunks best, when each half then has at
-// least kMinChunksInTime (the cluster-robust sigma's minimum: fewer give a sigma that a drive's
-// own variation overruns; clean data split 5 against 18 chunks read 3 combined sigma apart).
-constexpr size_t kMinChunksInTime = 10;
+// least kClusterRobustMinChunks (fewer give a sigma that a drive's own variation overruns; clean
+// data split 5 against 18 chunks read 3 combined sigma apart).
 
 struct HalfSplit {
   std::map<int64_t, int> of_drive;  // two or more drives: each drive's half
@@ -57,7 +56,7 @@ HalfSplit SplitHalves(const FitProblem& fit, const IncrementalPrior* prior, cons
   for (const auto& [t0, n] : chunks) {
     const size_t after = total - before;
     const double imbalance = std::abs(static_cast<double>(before) - static_cast<double>(after));
-    if (before >= kMinChunksInTime && after >= kMinChunksInTime && imbalance < best) {
+    if (before >= kClusterRobustMinChunks && after >= kClusterRobustMinChunks && imbalance < best) {
       best = imbalance;
       split.split_ns = t0;
       split.in_time = true;
