@@ -100,7 +100,7 @@ Check Halves(const FitFacts& f, const config::PlausibilityConfig& q) {
   Check c{.name = "halves"};
   if (!f.halves) {
     c.message = Fmt("EG of two halves of the window: skipped (%d drive%s; needs 2, or one whose chunks split into two halves "
-                    "of 10)", f.window_drives, f.window_drives == 1 ? "" : "s");
+                    "of %zu)", f.window_drives, f.window_drives == 1 ? "" : "s", f.halves_min_chunks);
     return c;
   }
   const HalfFacts& a = f.halves->first;

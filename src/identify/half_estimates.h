@@ -18,10 +18,6 @@
 
 namespace ndsid::identify {
 
-// The fewest chunks a cluster-robust sigma is computed over (the whole window's, a half's), and
-// so the fewest each half of a single drive split in time needs (optimum_sums.cc).
-inline constexpr size_t kClusterRobustMinChunks = 10;
-
 // One half's sums over its chunks, at the whole window's estimate theta (theta space, every
 // parameter of the model).
 struct HalfMoments {

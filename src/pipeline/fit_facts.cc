@@ -4,6 +4,7 @@
 #include <set>
 
 #include "ndsid/common/format.h"
+#include "ndsid/identify/half_estimate.h"
 
 namespace ndsid::pipeline {
 namespace {
@@ -94,6 +95,7 @@ adequacy::FitFacts FitFactsOf(const identify::IdentificationResult& fit, const W
   for (const stats::Segment* seg : snap.training)
     if (seg) drives.insert(seg->drive_id);
   f.window_drives = static_cast<int>(drives.size());
+  f.halves_min_chunks = identify::kClusterRobustMinChunks;
   if (choice && choice->judged) f.model_choice = ModelChoiceFactsOf(*choice, fit.eg_se_deg_per_g);
   return f;
 }

@@ -89,6 +89,7 @@ struct FitFacts {
   double steady_state_eg_deg_per_g = 0, steady_state_eg_se_deg_per_g = 0;
   std::optional<std::pair<HalfFacts, HalfFacts>> halves;  // none: not fitted (too few drives)
   int window_drives = 0;
+  size_t halves_min_chunks = 0;  // the fewest chunks each half needs (identify::kClusterRobustMinChunks)
   std::optional<ModelChoiceFacts> model_choice;  // none: not judged (a_y and v r agree in scale)
 };
 

@@ -9,6 +9,10 @@
 
 namespace ndsid::identify {
 
+// The fewest chunks a cluster-robust sigma is computed over (the whole window's, a half's), and
+// so the fewest each half of a single drive split in time needs (optimum_sums.cc).
+inline constexpr size_t kClusterRobustMinChunks = 10;
+
 struct HalfEstimate {
   bool valid = false;
   std::string reason;  // why not valid
