@@ -128,12 +128,13 @@ Check Halves(const FitFacts& f, const config::PlausibilityConfig& q) {
 Check ModelChoice(const FitFacts& f, const config::PlausibilityConfig& q) {
   Check c{.name = "model_choice"};
   const ModelChoiceFacts& m = *f.model_choice;
-  std::string each, configured;
+  std::string each, configured, watched;
   for (const AlternativeFacts& a : m.alternatives) {
-    std::string& list = a.configured ? configured : each;
+    std::string& list = !a.evidence.empty() ? watched : a.configured ? configured : each;
     list += (list.empty() ? "" : "; ") +
             (a.configured ? Fmt("+%s (%s %.4g)", a.name.c_str(), a.parameter.c_str(), a.scale)
                           : Fmt("%s %+.2f %%", a.name.c_str(), 100 * a.scale)) + ": ";
+    if (!a.evidence.empty()) list += a.evidence + "; ";
     list += a.ruled_out ? "ruled out (" + a.ruled_out_why + ")" : Fmt("EG %.3f +- %.3f", a.eg_deg_per_g, a.eg_se_deg_per_g);
   }
   for (const std::string& n : m.notes) each += (each.empty() ? "" : "; ") + n;
@@ -147,6 +148,7 @@ Check ModelChoice(const FitFacts& f, const config::PlausibilityConfig& q) {
   if (!m.wheel_note.empty()) c.message += "; " + m.wheel_note;
   if (!each.empty()) c.message += ": refitted with the disagreement in each sensor (" + each + ")";
   if (!configured.empty()) c.message += ": refitted with each of model.alternatives (" + configured + ")";
+  if (!watched.empty()) c.message += ": refitted with each effect of model.watch its score test finds missing (" + watched + ")";
   c.message += Fmt(": EG spread %.3f deg/g = %.1f %% of |EG| (accepted <= %.0f %%), sigma(EG) widened %.3f -> %.3f deg/g", spread,
                    100 * c.value, 100 * q.model_choice_spread_rel_max, m.eg_se_published_deg_per_g, widened);
   if (!m.fit_ruled_out_why.empty())

@@ -86,6 +86,9 @@ void ReadModel(const YamlReader& m, Config& c) {
   c.model_alternatives = m.Strings("alternatives", {});
   if (c.model_alternatives.size() > kMaxAlternatives)
     m.Fail("alternatives", "at most " + std::to_string(kMaxAlternatives) + " alternatives (each is one more fit of the window per estimate)");
+  c.model_watch = m.Strings("watch", c.model_watch);
+  if (c.model_watch.size() > kMaxWatched)
+    m.Fail("watch", "at most " + std::to_string(kMaxWatched) + " watched effects (each is one score test per estimate)");
   if (m.Has("formulas")) {
     const YamlReader fs = m.Child("formulas");
     for (const auto& kv : fs.node()) c.model_formulas.push_back(ReadFormula(fs, kv.first.as<std::string>()));

@@ -50,6 +50,7 @@ nlohmann::json ModelChoiceJson(const ModelChoice& m) {
       alts.back()["configured"] = true;
       alts.back()["parameter"] = a.parameter;
     }
+    if (!a.evidence.empty()) alts.back()["evidence"] = a.evidence;  // model.watch
   }
   nlohmann::json j = {{"kinematic_gain", m.gain}, {"kinematic_gain_se", m.gain_se}, {"alternatives", alts}, {"notes", m.notes},
                       {"seconds", m.seconds}, {"fit_ruled_out_why", m.fit_ruled_out_why}, {"published", m.published}};
@@ -73,6 +74,7 @@ ModelChoice ModelChoiceFromJson(const JsonIn& in) {
       m.alternatives.back().configured = a.Bool("configured");
       m.alternatives.back().parameter = a.String("parameter");
     }
+    if (a.Has("evidence")) m.alternatives.back().evidence = a.String("evidence");
   }
   m.notes = in.At("notes").Strings(16);
   m.seconds = in.Number("seconds");

@@ -46,6 +46,7 @@ adequacy::ModelChoiceFacts ModelChoiceFactsOf(const ModelChoice& choice, double 
   adequacy::ModelChoiceFacts m{.gain = choice.gain, .gain_se = choice.gain_se, .eg_se_published_deg_per_g = eg_se_published_deg_per_g};
   for (const ModelAlternative& a : choice.alternatives)
     m.alternatives.push_back({.name = a.name, .scale = a.scale, .configured = a.configured, .parameter = a.parameter,
+                              .evidence = a.evidence,
                               .eg_deg_per_g = a.eg_deg_per_g,
                               .eg_se_deg_per_g = a.eg_se_deg_per_g, .ruled_out = a.ruled_out, .ruled_out_why = a.ruled_out_why});
   m.notes = choice.notes;

@@ -6,6 +6,7 @@
 
 #include "ndsid/common/error.h"
 #include "ndsid/common/format.h"
+#include "ndsid/discover/diagnosis.h"
 #include "ndsid/pipeline/pipeline.h"
 #include "ndsid/stats/speed_scale.h"
 #include "ndsid/stats/wheel_yaw.h"
@@ -231,13 +232,58 @@ void FitScaleAttributions(const identify::Identifier& identifier, const WindowSn
   }
 }
 
+// The watched effects' score tests at the fit (training drives); each significant one refitted.
+// A watched effect refitted as an alternative, `evidence` the score test that found it.
+void RefitWatched(const identify::Identifier& identifier, const WindowSnapshot& snap, const identify::IdentificationResult& fit,
+                  const std::string& effect, const std::string& evidence, ModelChoice& choice) {
+  ModelAlternative alt = Refit(identifier, snap, fit, effect, std::nullopt, std::nullopt);
+  alt.evidence = evidence;
+  JudgeAgainstFit(fit, alt);
+  choice.alternatives.push_back(std::move(alt));
+  choice.judged = true;
+}
+
+void FitWatched(const identify::Identifier& identifier, const WindowSnapshot& snap, const identify::IdentificationResult& fit,
+                const WatchRequest& watch, const std::vector<std::string>& configured, ModelChoice& choice) {
+  const std::vector<std::string> names = WatchedToTest(watch.effects, identifier.spec(), configured);
+  if (!watch.test) {  // an incremental update: what the last test found, its EG shift carried
+    for (const WatchFinding& f : watch.found) {
+      if (std::find(names.begin(), names.end(), f.alternative.name) == names.end()) continue;
+      ModelAlternative alt = f.alternative;
+      alt.evidence += Fmt(" (at the last full-window or exact fit; its EG shift %+.3f deg/g carried, not refitted)", f.eg_shift_deg_per_g);
+      alt.eg_deg_per_g = fit.eg_deg_per_g + f.eg_shift_deg_per_g;
+      alt.result.reset();
+      choice.alternatives.push_back(std::move(alt));
+      choice.judged = true;
+    }
+    return;
+  }
+  choice.watch_tested = true;
+  if (names.empty() || snap.training.empty()) return;
+  discover::DiagnosisOptions options;
+  options.candidates = names;
+  options.z_threshold = kSignificanceZ;
+  discover::Diagnosis d;
+  try {
+    d = discover::Diagnose(identifier, fit.AllValues(), snap.training, options);
+  } catch (const std::exception& e) {  // out of memory, a formula that cannot be evaluated
+    choice.notes.push_back("model.watch not tested: " + std::string(e.what()));
+    return;
+  }
+  for (const discover::CandidateScore& s : d.ranked) {
+    if (s.significant)
+      RefitWatched(identifier, snap, fit, s.effect, Fmt("score test at the fit: z %+.1f, one-step %.4g", s.z_robust, s.one_step), choice);
+  }
+}
+
 }  // namespace
 
 ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const WindowSnapshot& snap,
                                  const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
-                                 double track_rear_m, const std::vector<std::string>& configured) {
+                                 double track_rear_m, const std::vector<std::string>& configured,
+                                 const WatchRequest& watch) {
   ModelChoice choice;
-  if (!fit.valid || (!fit.yaw_rate_output && configured.empty())) return choice;  // nothing to refit
+  if (!fit.valid) return choice;
   const auto t0 = std::chrono::steady_clock::now();
   choice.wheel_yaw = WheelEvidence(snap.AllSegments(), track_rear_m);
   const double own = PredictedWheelScale(EffectValue(fit, "gyro_scale"), EffectValue(fit, "speed_scale"));
@@ -248,10 +294,52 @@ ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const W
     choice.alternatives.push_back(std::move(alt));
     choice.judged = true;
   }
-  if (!choice.judged) return ModelChoice{};
+  FitWatched(identifier, snap, fit, watch, configured, choice);
+  if (!choice.judged) return ModelChoice{.watch_tested = choice.watch_tested};
   RefereeByWheels(own, track_rear_m, choice);
   choice.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return choice;
+}
+
+std::vector<WatchFinding> WatchFound(const ModelChoice& choice, double fit_eg_deg_per_g) {
+  std::vector<WatchFinding> found;
+  for (const ModelAlternative& a : choice.alternatives) {
+    if (a.evidence.empty() || a.ruled_out || !a.fitted) continue;
+    WatchFinding f{.alternative = a, .eg_shift_deg_per_g = a.eg_deg_per_g - fit_eg_deg_per_g};
+    f.alternative.result.reset();
+    found.push_back(std::move(f));
+  }
+  return found;
+}
+
+void CheckWatched(const std::vector<std::string>& watched, const model::EffectLibrary& library) {
+  for (size_t i = 0; i < watched.size(); ++i) {
+    const std::string& w = watched[i];
+    const std::string where = "model.watch: '" + w + "'";
+    if (!library.Find(w)) throw ConfigError(where + " is not an effect of the library or a formula (model.formulas)");
+    if (std::find(watched.begin(), watched.begin() + static_cast<long>(i), w) != watched.begin() + static_cast<long>(i))
+      throw ConfigError(where + " is listed twice");
+  }
+}
+
+std::vector<std::string> WatchedToTest(const std::vector<std::string>& watched, const model::ModelSpec& spec,
+                                       const std::vector<std::string>& configured) {
+  std::vector<std::string> out;
+  const std::vector<std::string> effects = spec.effect_names();
+  for (const std::string& w : watched) {
+    if (std::find(effects.begin(), effects.end(), w) != effects.end() ||
+        std::find(configured.begin(), configured.end(), w) != configured.end())
+      continue;
+    std::vector<std::string> with = effects;
+    with.push_back(w);
+    try {
+      (void)model::ModelSpec::FromNames(with, spec.library());
+    } catch (const ConfigError&) {
+      continue;  // shares a parameter with the model's effects (an alternative form of one of them)
+    }
+    out.push_back(w);
+  }
+  return out;
 }
 
 void CheckAlternatives(const std::vector<std::string>& alternatives, const std::vector<std::string>& effects,

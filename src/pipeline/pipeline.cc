@@ -68,6 +68,7 @@ Pipeline::Pipeline(const config::Config& config, const dbc::Database& db)
   samples_.reserve(1024);
   timed_.reserve(sync::TimeBase::kConfirm + 2);
   CheckAlternatives(config.model_alternatives, config.model_effects, library_);
+  CheckWatched(config.model_watch, library_);
   // model.priors must name a parameter of the base model, of a library effect or of a formula,
   // or EG itself.
   if (config.identification.priors.empty()) return;
@@ -261,6 +262,12 @@ bool Pipeline::ExactDue() const {
   return c.incremental && linearized_ && c.full_refit_every > 0 && linearized_->updates_since_full + 1 >= c.full_refit_every;
 }
 
+WatchRequest Pipeline::Watch(bool exact, double gated_hours) const {
+  const config::IdentificationConfig& c = config_.identification;
+  const bool test = !c.incremental || !linearized_ || exact || gated_hours >= 2 * watch_tested_hours_;
+  return WatchRequest{.effects = config_.model_watch, .test = test, .found = watch_found_};
+}
+
 FitJob Pipeline::StartFit() const { return StartFit(std::make_shared<const WindowSnapshot>(Snapshot())); }
 
 FitJob Pipeline::StartFit(std::shared_ptr<const WindowSnapshot> snap) const {
@@ -271,10 +278,11 @@ FitJob Pipeline::StartFit(std::shared_ptr<const WindowSnapshot> snap) const {
   job.data_checks = CheckData(*job.snap);  // on this thread; the worker reads the kinematic gain
   job.result = std::async(std::launch::async, [snap = job.snap, identifier = identifier_, warm = WarmStart(), prior = Prior(),
                                                exact = ExactDue(), fit_s = job.fit_s, checks = job.data_checks, choice = job.choice,
-                                               track = config_.vehicle.track_rear_m, alternatives = config_.model_alternatives] {
+                                               track = config_.vehicle.track_rear_m, alternatives = config_.model_alternatives,
+                                               watch = Watch(ExactDue(), job.snap->gated_hours)] {
     const auto t0 = std::chrono::steady_clock::now();
     identify::IdentificationResult r = Fit(identifier, *snap, warm, prior, exact);
-    *choice = FitModelAlternatives(identifier, *snap, r, checks, track, alternatives);
+    *choice = FitModelAlternatives(identifier, *snap, r, checks, track, alternatives, watch);
     fit_s->store(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     return r;
   });
@@ -323,6 +331,10 @@ const Estimate& Pipeline::Accept(const WindowSnapshot& snap, identify::Identific
                                  const adequacy::PlausibilityReport* data_checks, const ModelChoice* choice) {
   last_fit_data_ns_ = snap.data_time_ns;
   last_fit_gated_hours_ = snap.gated_hours;
+  if (choice && choice->watch_tested) {
+    watch_found_ = WatchFound(*choice, fit.eg_deg_per_g);
+    watch_tested_hours_ = snap.gated_hours;
+  }
   Estimate e;
   e.data_time_ns = snap.data_time_ns;
   e.steady_state = snap.steady_state;
@@ -409,7 +421,8 @@ const Estimate& Pipeline::IdentifyNow(bool final) {
   const auto t1 = std::chrono::steady_clock::now();
   const adequacy::PlausibilityReport checks = CheckData(snap);
   identify::IdentificationResult fit = Fit(identifier_, snap, WarmStart(), Prior(), final || ExactDue());
-  const ModelChoice choice = FitModelAlternatives(identifier_, snap, fit, checks, config_.vehicle.track_rear_m, config_.model_alternatives);
+  const ModelChoice choice = FitModelAlternatives(identifier_, snap, fit, checks, config_.vehicle.track_rear_m, config_.model_alternatives,
+                                                   Watch(final || ExactDue(), snap.gated_hours));
   const auto t2 = std::chrono::steady_clock::now();
   const Estimate& e = Accept(snap, std::move(fit), &checks, &choice);
   const auto t3 = std::chrono::steady_clock::now();

@@ -17,6 +17,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const ndsid::model::EffectLibrary library(c.model_formulas);
     ndsid::model::ModelSpec::FromNames(c.model_effects);
     ndsid::pipeline::CheckAlternatives(c.model_alternatives, c.model_effects, library);
+    ndsid::pipeline::CheckWatched(c.model_watch, library);
   } catch (const ndsid::ConfigError&) {
   }
   return 0;

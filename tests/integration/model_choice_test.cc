@@ -165,6 +165,85 @@ TEST(ModelChoice, AConfiguredAlternativeThatMovesEgWidensSigma) {
   }
 }
 
+// Catches: a tyre that saturates inside the gate published with a sigma that excludes the truth
+// when nobody listed the effect (model.watch, by default tyre_saturation): the linear fit's
+// residual stays near its floor while EG is a few per cent high; the score test at the fit finds
+// the saturation, the refit stands near the truth and the published sigma covers the truth or
+// model_choice fails. Other seeds and grips than the configured case above; a_y alone as well.
+TEST(ModelChoice, AWatchedEffectTheScoreTestFindsWidensSigma) {
+  struct Case {
+    uint64_t seed;
+    double mu;
+    bool two_outputs;
+  };
+  for (const Case& k : {Case{314, 0.8, true}, Case{315, 0.9, true}, Case{316, 0.8, false}}) {
+    ReplayTweaks tweaks;
+    tweaks.yaw_rate_output = k.two_outputs;
+    SimulatedRun run = SimulateAndReplay("model_choice_watch_" + std::to_string(k.seed), k.seed, kHours,
+                                         {"tyre_mu=" + std::to_string(k.mu)}, {"road_bank", "gyro_offset"}, tweaks);
+    const pipeline::Estimate& e = run.pipeline->IdentifyNow(true);
+    const double truth = model::EgToDegPerG(run.eg_truth);
+    const adequacy::Check* c = FindCheck(e, "model_choice");
+    ASSERT_NE(c, nullptr) << "seed " << k.seed << ": the score test did not find the saturation\n" << CheckList(e);
+    std::printf("tyre_mu %.1f seed %llu (%s): EG %.3f +- %.3f deg/g (truth %.3f), %s; %s\n", k.mu,
+                static_cast<unsigned long long>(k.seed), k.two_outputs ? "two outputs" : "a_y", e.fit.eg_deg_per_g,
+                e.fit.eg_se_deg_per_g, truth, e.fit.valid ? "valid" : "not valid", c->message.c_str());
+    const pipeline::ModelAlternative* tyre = Alternative(e, "tyre_saturation");
+    ASSERT_NE(tyre, nullptr) << c->message;
+    EXPECT_NE(tyre->evidence.find("score test"), std::string::npos) << tyre->evidence;
+    EXPECT_NE(c->message.find("model.watch"), std::string::npos) << c->message;
+    ASSERT_TRUE(tyre->fitted) << tyre->reason;
+    EXPECT_FALSE(tyre->ruled_out) << tyre->ruled_out_why;
+    EXPECT_LT(std::abs(tyre->eg_deg_per_g / truth - 1), 0.01) << c->message;
+    if (e.fit.valid) {
+      EXPECT_LE(std::abs(e.fit.eg_deg_per_g - truth), 2 * e.fit.eg_se_deg_per_g) << c->message;
+    } else {
+      EXPECT_EQ(c->verdict, adequacy::Verdict::kFailed) << e.fit.reason;
+    }
+    // The evidence travels in estimate.json.
+    const pipeline::Estimate back = pipeline::EstimateFromJson(JsonIn(pipeline::EstimateToJson(e), "estimate"));
+    const pipeline::ModelAlternative* read = Alternative(back, "tyre_saturation");
+    ASSERT_NE(read, nullptr);
+    EXPECT_EQ(read->evidence, tyre->evidence);
+  }
+}
+
+// Catches: the incremental updates between two score tests of model.watch publishing the linear
+// fit's narrow sigma again. A periodic replay (1.5 h, a fit every 5 min of data, incremental): the test
+// runs at the first fit and where the gated time has doubled since the last one; the updates
+// between carry what the last test found (its EG shift, not refitted).
+TEST(ModelChoice, AWatchedEffectFoundIsCarriedToTheIncrementalUpdatesBetweenTests) {
+  ReplayTweaks tweaks;
+  tweaks.identify_every_s = 300;
+  SimulatedRun run = SimulateAndReplay("model_choice_watch_periodic", 316, 1.5, {"tyre_mu=0.8"}, {"road_bank", "gyro_offset"}, tweaks);
+  bool found_before = false;
+  int carried = 0;
+  for (const pipeline::Estimate& e : run.pipeline->history()) {
+    const pipeline::ModelAlternative* tyre = Alternative(e, "tyre_saturation");
+    std::printf("%.2f gated h, %s: EG %.3f +- %.3f deg/g, tyre_saturation %s\n", e.gated_hours, e.fit.update.c_str(), e.fit.eg_deg_per_g,
+                e.fit.eg_se_deg_per_g, tyre ? tyre->evidence.c_str() : "-");
+    if (found_before && !e.model_choice.watch_tested) {
+      ASSERT_NE(tyre, nullptr) << "an update after the test found the saturation does not refit it";
+      EXPECT_NE(tyre->evidence.find("at the last full-window or exact fit"), std::string::npos) << tyre->evidence;
+      ++carried;
+    }
+    if (e.model_choice.watch_tested) found_before = tyre != nullptr;
+  }
+  EXPECT_GT(carried, 0) << "no update between two tests after the saturation was found";
+}
+
+// Catches: a watched effect that is not in the library accepted (it would fail at the first fit),
+// and one the model already has, lists as an alternative or cannot take tested anyway.
+TEST(ModelChoice, WatchedEffectsAreCheckedAndSkippedWhereTheModelHasThem) {
+  const model::EffectLibrary& lib = model::EffectLibrary::Builtin();
+  EXPECT_NO_THROW(pipeline::CheckWatched({"tyre_saturation", "lever_arm"}, lib));
+  EXPECT_THROW(pipeline::CheckWatched({"no_such_effect"}, lib), ConfigError);
+  EXPECT_THROW(pipeline::CheckWatched({"lever_arm", "lever_arm"}, lib), ConfigError);
+  const model::ModelSpec spec = model::ModelSpec::FromNames({"road_bank", "gyro_offset", "tyre_saturation"}, lib);
+  EXPECT_EQ(pipeline::WatchedToTest({"tyre_saturation", "lever_arm", "relaxation", "gyro_offset_per_drive"}, spec, {"relaxation"}),
+            std::vector<std::string>{"lever_arm"});
+}
+
 // Catches: configured alternatives that clean data cannot tell from their absence ruining the
 // estimate, and a formula effect (model.formulas) not found as an alternative: the lever arm and
 // an accelerometer gain stated as a formula, refitted, stand and move EG within its sigma.

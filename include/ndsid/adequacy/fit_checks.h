@@ -63,6 +63,7 @@ struct AlternativeFacts {
   double scale = 0;          // the scale the refit ended on; configured: its first parameter's value
   bool configured = false;
   std::string parameter;     // configured: that parameter's name and unit
+  std::string evidence;      // a watched effect (model.watch): the score test that made the refit
   double eg_deg_per_g = 0, eg_se_deg_per_g = 0;
   bool ruled_out = false;    // the data contradict it (its held-out RMSE), why in ruled_out_why
   std::string ruled_out_why;

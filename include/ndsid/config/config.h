@@ -111,6 +111,8 @@ struct ParameterSpec {
 inline constexpr const char* kEgPriorName = "eg_deg_per_g";
 // model.alternatives: at most this many (each is one more fit of the window per estimate).
 inline constexpr size_t kMaxAlternatives = 8;
+// model.watch: at most this many (each is one score test per estimate, and a fit when significant).
+inline constexpr size_t kMaxWatched = 8;
 
 // A Gaussian prior on one model parameter (model.priors in the YAML): a data-sheet roll
 // gradient, a measured tyre radius... Enters the fit as a residual (p - value)/sd weighted by
@@ -276,6 +278,11 @@ struct Config {
   // each estimate refits the window with each one added and sigma(EG) covers the EGs of those the
   // held-out data do not rule out (the model_choice check; `ndsid diagnose --apply` writes them).
   std::vector<std::string> model_alternatives;
+  // model.watch: effects whose score test is run at every fit; one the model lacks whose robust z
+  // reaches pipeline::kSignificanceZ is refitted as an alternative like model.alternatives' (a
+  // tyre that saturates inside the gate moves EG by a few per cent while the residual stays near
+  // its floor). Effects already in model.effects or model.alternatives are left to those.
+  std::vector<std::string> model_watch = {"tyre_saturation"};
 
   const RoleSignal* role(Role r) const { return roles[static_cast<int>(r)] ? &*roles[static_cast<int>(r)] : nullptr; }
 };

@@ -23,6 +23,12 @@
 // (gyro_scale_at_wheels); the spread over both covers a disagreement of the two references.
 // The checks of the fit (adequacy::ModelChoiceSpread) widen sigma(EG) by the spread of the rest. Only fits with the yaw rate as an output are judged
 // for the scales (with a_y alone the scales are absorbed into is and EG: physics.md §4).
+// Watched effects (model.watch, by default tyre_saturation): a valid full-window or exact fit runs
+// each one's score test (discover::Diagnose) over the training drives; one the model lacks whose
+// robust z reaches kSignificanceZ is refitted and judged as a configured alternative is, and so
+// at every incremental update until the next test its EG shift is carried (WatchRequest). A tyre that saturates
+// inside the gate leaves a residual near its floor and EG a few per cent (several sigma) high; the
+// score test sees it where the RMSE does not.
 // Configured alternatives (model.alternatives, written by `ndsid diagnose --apply` where EG is not
 // settled): every valid fit, with either output, is refitted once per effect listed, added to the
 // model and started at its initial values, and judged the same way (ruled out by a held-out RMSE,
@@ -59,6 +65,9 @@ struct ModelAlternative {
   // The refit itself (not written to estimate.json): published in the fit's place when the rear
   // wheels rule the fit out and this alternative stands.
   std::shared_ptr<const identify::IdentificationResult> result;
+  // A watched effect (model.watch, configured set too): its score test at the fit, which made the
+  // refit ("score test at the fit: z -4.4, one-step 1.61"); "" for the others.
+  std::string evidence;
 };
 
 // The gyro's scale against the rear wheels, as the model choice used it.
@@ -77,7 +86,26 @@ struct ModelChoice {
   WheelYawFacts wheel_yaw;   // the rear wheels' evidence (available: false where the bus lacks it)
   std::string fit_ruled_out_why;  // non-empty: the fit as identified contradicts the rear wheels
   std::string published;     // the alternative published in the fit's place ("" = the fit as identified)
+  bool watch_tested = false;  // the watched effects' score test ran at this fit (WatchRequest::test)
 };
+
+// model.watch at one fit. The score test costs a Jacobian of the whole window, more than an
+// incremental update itself, so it runs at full-window and exact fits (the first, every
+// identification.full_refit_every-th, the final one, every fit with incremental: false) and
+// where the window's gated time has doubled since the last test (Pipeline::Watch); the
+// incremental updates between carry what the last test found, not refitted: each standing
+// alternative's EG shift from the fit it was judged against, added to the update's EG.
+struct WatchFinding {
+  ModelAlternative alternative;  // as judged at the test (its refit's result not kept)
+  double eg_shift_deg_per_g = 0;  // its EG minus the tested fit's
+};
+struct WatchRequest {
+  std::vector<std::string> effects;  // model.watch
+  bool test = true;
+  std::vector<WatchFinding> found;
+};
+// The watched effects a tested choice found standing, for the next WatchRequest::found.
+std::vector<WatchFinding> WatchFound(const ModelChoice& choice, double fit_eg_deg_per_g);
 
 // The rules above, as constants (docs/monitoring.md states them).
 inline constexpr double kSignificanceZ = 3.0;            // |g - 1| / se(g)
@@ -94,6 +122,13 @@ inline constexpr const char* kHeldSuffix = "_at_wheels";
 void CheckAlternatives(const std::vector<std::string>& alternatives, const std::vector<std::string>& effects,
                        const model::EffectLibrary& library);
 
+// model.watch against the library: each a library or formula effect, listed once. Throws
+// ConfigError. One in model.effects or model.alternatives, or one that cannot be added to the
+// model (it shares a parameter with an effect of it), is not tested (WatchedToTest).
+void CheckWatched(const std::vector<std::string>& watched, const model::EffectLibrary& library);
+std::vector<std::string> WatchedToTest(const std::vector<std::string>& watched, const model::ModelSpec& spec,
+                                       const std::vector<std::string>& configured);
+
 // Whether the window's kinematics check shows a significant scale disagreement for a fit with
 // the yaw rate as an output (the gain and its se from `data_checks`' window-level kinematics).
 bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
@@ -104,6 +139,7 @@ bool ScaleDisagreement(const identify::IdentificationResult& fit, const adequacy
 // vehicle.track_rear_m (0: no wheel evidence). Runs on the fit's thread; touches no pipeline state.
 ModelChoice FitModelAlternatives(const identify::Identifier& identifier, const WindowSnapshot& snap,
                                  const identify::IdentificationResult& fit, const adequacy::PlausibilityReport& data_checks,
-                                 double track_rear_m = 0, const std::vector<std::string>& configured = {});
+                                 double track_rear_m = 0, const std::vector<std::string>& configured = {},
+                                 const WatchRequest& watch = {});
 
 }  // namespace ndsid::pipeline

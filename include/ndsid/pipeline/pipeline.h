@@ -133,6 +133,9 @@ class Pipeline {
   // Whether the next periodic update is a scheduled exact one (every
   // identification.full_refit_every-th update relinearises every chunk of the prior).
   bool ExactDue() const;
+  // model.watch at a fit of `gated_hours` (exact: a full-window or exact one): tested at those,
+  // and where the gated time has doubled since the last test; else the last test's findings.
+  WatchRequest Watch(bool exact, double gated_hours) const;
   const std::shared_ptr<const identify::LinearizedWindow>& linearized() const { return linearized_; }
   // Learned state: the prior restored from a persisted state (checked for the model and
   // scaling by the identifier, which ignores an incompatible one).
@@ -210,6 +213,10 @@ class Pipeline {
   // chain of fits does not depend on the validity verdicts, only what is published does.
   std::optional<std::vector<double>> last_fit_values_;
   std::shared_ptr<const identify::LinearizedWindow> linearized_;  // the incremental prior
+  // What the last score test of model.watch found standing: carried to the incremental updates
+  // until the next test (WatchRequest).
+  std::vector<WatchFinding> watch_found_;
+  double watch_tested_hours_ = 0;  // the gated hours of the last test
   std::vector<Estimate> history_;
   std::set<int64_t> implausible_drives_reported_;  // drives whose failed check was logged
   int64_t data_time_ns_ = 0;
