@@ -232,7 +232,6 @@ void FitScaleAttributions(const identify::Identifier& identifier, const WindowSn
   }
 }
 
-// The watched effects' score tests at the fit (training drives); each significant one refitted.
 // A watched effect refitted as an alternative, `evidence` the score test that found it.
 void RefitWatched(const identify::Identifier& identifier, const WindowSnapshot& snap, const identify::IdentificationResult& fit,
                   const std::string& effect, const std::string& evidence, ModelChoice& choice) {
@@ -243,6 +242,8 @@ void RefitWatched(const identify::Identifier& identifier, const WindowSnapshot& 
   choice.judged = true;
 }
 
+// The watched effects' score tests at the fit (training drives), each significant one refitted;
+// or, at an incremental update (watch.test false), the last test's findings carried.
 void FitWatched(const identify::Identifier& identifier, const WindowSnapshot& snap, const identify::IdentificationResult& fit,
                 const WatchRequest& watch, const std::vector<std::string>& configured, ModelChoice& choice) {
   const std::vector<std::string> names = WatchedToTest(watch.effects, identifier.spec(), configured);
@@ -252,7 +253,6 @@ void FitWatched(const identify::Identifier& identifier, const WindowSnapshot& sn
       ModelAlternative alt = f.alternative;
       alt.evidence += Fmt(" (at the last full-window or exact fit; its EG shift %+.3f deg/g carried, not refitted)", f.eg_shift_deg_per_g);
       alt.eg_deg_per_g = fit.eg_deg_per_g + f.eg_shift_deg_per_g;
-      alt.result.reset();
       choice.alternatives.push_back(std::move(alt));
       choice.judged = true;
     }
@@ -274,6 +274,16 @@ void FitWatched(const identify::Identifier& identifier, const WindowSnapshot& sn
     if (s.significant)
       RefitWatched(identifier, snap, fit, s.effect, Fmt("score test at the fit: z %+.1f, one-step %.4g", s.z_robust, s.one_step), choice);
   }
+}
+
+// names[i] of the list under `key`: a library or formula effect, not listed before it. Throws
+// ConfigError "key: 'name' ...".
+void CheckListedEffect(const std::vector<std::string>& names, size_t i, const std::string& key, const model::EffectLibrary& library) {
+  const std::string& n = names[i];
+  const std::string where = key + ": '" + n + "'";
+  if (!library.Find(n)) throw ConfigError(where + " is not an effect of the library or a formula (model.formulas)");
+  if (std::find(names.begin(), names.begin() + static_cast<long>(i), n) != names.begin() + static_cast<long>(i))
+    throw ConfigError(where + " is listed twice");
 }
 
 }  // namespace
@@ -313,13 +323,7 @@ std::vector<WatchFinding> WatchFound(const ModelChoice& choice, double fit_eg_de
 }
 
 void CheckWatched(const std::vector<std::string>& watched, const model::EffectLibrary& library) {
-  for (size_t i = 0; i < watched.size(); ++i) {
-    const std::string& w = watched[i];
-    const std::string where = "model.watch: '" + w + "'";
-    if (!library.Find(w)) throw ConfigError(where + " is not an effect of the library or a formula (model.formulas)");
-    if (std::find(watched.begin(), watched.begin() + static_cast<long>(i), w) != watched.begin() + static_cast<long>(i))
-      throw ConfigError(where + " is listed twice");
-  }
+  for (size_t i = 0; i < watched.size(); ++i) CheckListedEffect(watched, i, "model.watch", library);
 }
 
 std::vector<std::string> WatchedToTest(const std::vector<std::string>& watched, const model::ModelSpec& spec,
@@ -347,11 +351,9 @@ void CheckAlternatives(const std::vector<std::string>& alternatives, const std::
   for (size_t i = 0; i < alternatives.size(); ++i) {
     const std::string& a = alternatives[i];
     const std::string where = "model.alternatives: '" + a + "'";
-    if (!library.Find(a)) throw ConfigError(where + " is not an effect of the library or a formula (model.formulas)");
+    CheckListedEffect(alternatives, i, "model.alternatives", library);
     if (std::find(effects.begin(), effects.end(), a) != effects.end())
       throw ConfigError(where + " is in model.effects already (an alternative is refitted added to the model)");
-    if (std::find(alternatives.begin(), alternatives.begin() + static_cast<long>(i), a) != alternatives.begin() + static_cast<long>(i))
-      throw ConfigError(where + " is listed twice");
     std::vector<std::string> with = effects;
     with.push_back(a);
     try {

@@ -223,7 +223,7 @@ TEST(ModelChoice, AWatchedEffectFoundIsCarriedToTheIncrementalUpdatesBetweenTest
     std::printf("%.2f gated h, %s: EG %.3f +- %.3f deg/g, tyre_saturation %s\n", e.gated_hours, e.fit.update.c_str(), e.fit.eg_deg_per_g,
                 e.fit.eg_se_deg_per_g, tyre ? tyre->evidence.c_str() : "-");
     if (found_before && !e.model_choice.watch_tested) {
-      ASSERT_NE(tyre, nullptr) << "an update after the test found the saturation does not refit it";
+      ASSERT_NE(tyre, nullptr) << "an update after the test found the saturation does not carry it";
       EXPECT_NE(tyre->evidence.find("at the last full-window or exact fit"), std::string::npos) << tyre->evidence;
       ++carried;
     }

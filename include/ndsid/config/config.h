@@ -278,7 +278,8 @@ struct Config {
   // each estimate refits the window with each one added and sigma(EG) covers the EGs of those the
   // held-out data do not rule out (the model_choice check; `ndsid diagnose --apply` writes them).
   std::vector<std::string> model_alternatives;
-  // model.watch: effects whose score test is run at every fit; one the model lacks whose robust z
+  // model.watch: effects whose score test is run at full-window and exact fits and where the
+  // gated time has doubled (pipeline::WatchRequest); one the model lacks whose robust z
   // reaches pipeline::kSignificanceZ is refitted as an alternative like model.alternatives' (a
   // tyre that saturates inside the gate moves EG by a few per cent while the residual stays near
   // its floor). Effects already in model.effects or model.alternatives are left to those.
