@@ -82,6 +82,7 @@ Ladder ErrorLadder::Climb() {
   }
   if (ladder_.stop_reason.empty()) ladder_.stop_reason = "step limit reached";
   TryStandstillEvidence();
+  TrySteadyStateEvidence();
   PruneUndetermined();
   ladder_.final_effects = effects_;
   Judge();
@@ -128,62 +129,6 @@ void ErrorLadder::TrySpeedScaleFirst() {
   spdlog::info("ladder: + speed_scale: {}", t.why);
   ladder_.trials.push_back(t);
   if (t.accepted) AddRung(r, "speed_scale", 0.0);
-}
-
-// The standstill evidence (docs/two-outputs.md, "Standstill evidence"): the stops' mean a_y and
-// yaw rate read the accelerometer's bias and the gyro's offset, which the driving data may not
-// tell from an effect already in the model. With road_bank a steering offset d0 absorbs an a_y
-// bias b: the model fits d0 - is EG b and explains both outputs as well as the truth does, so no
-// refit with accel_bias lowers a held-out error and its score, the stops' alone, may stay below
-// the ranking's threshold. After the climb, each such effect the model lacks whose parameter the
-// stops determine (their mean more than determined_z of its standard error from 0) and the model's
-// parameters absorb is refitted (Identify takes the stops as a prior) and added unless a held-out
-// RMSE rises by more than 1 %, its parameter is undetermined or implausible, or the refit lands
-// more than 3 standard errors from the stops' value (then the stops read something else: a car
-// parked on a slope).
-void ErrorLadder::TryStandstillEvidence() {
-  std::optional<Diagnosis> diagnosis;  // the final model's, made once some stops qualify
-  for (const Identifier::StandstillPrior& sp : TrainingStandstillPriors()) {
-    const std::string& effect = sp.effect;
-    const bool in_model = std::any_of(effects_.begin(), effects_.end(),
-                                      [&](const std::string& e) { return SharesParameter(library_, e, effect); });
-    if (in_model || !library_.Find(effect) || !IsCandidate(effect) || !(std::abs(sp.value) > options_.determined_z * sp.sd)) continue;
-    // Only where the driving data cannot tell it from the model's own parameters (ScoreCandidate's
-    // uniqueness below kConfoundedUniqueness): elsewhere the ranking has judged it already.
-    if (!diagnosis) diagnosis = Diagnose(current_, fit_.AllValues(), training_, options_.diagnosis);
-    const auto scored = std::find_if(diagnosis->ranked.begin(), diagnosis->ranked.end(),
-                                     [&](const CandidateScore& c) { return c.effect == effect; });
-    if (scored == diagnosis->ranked.end() || !(scored->uniqueness < kConfoundedUniqueness)) continue;
-    const Refit r = RefitWith(EffectsWith(effect));
-    Trial t;
-    t.step = static_cast<int>(ladder_.rungs.size()) - 1;
-    t.effect = effect;
-    t.held_out_before = HeldOutRmse(fit_);
-    char evidence[160];
-    std::snprintf(evidence, sizeof evidence, "standstill evidence: %.4g +- %.2g %s over %zu stops", sp.value, sp.sd,
-                  library_.Get(effect)->info().params[0].unit.c_str(), sp.stops);
-    if (!r.fit.valid) {
-      t.why = std::string("rejected (") + evidence + "): fit not valid: " + r.fit.reason;
-    } else {
-      const bool both = BothOutputsScored(fit_, r.fit);
-      RecordRefit(t, fit_, r.fit, both);
-      const std::string implausible = ImplausibleParameters(*library_.Get(effect), r.fit, options_.determined_z);
-      double fitted = sp.value;
-      for (const auto& p : r.fit.effect_params)
-        if (p.name == sp.param) fitted = p.value;
-      const bool agrees = std::abs(fitted - sp.value) <= 3 * sp.sd;
-      t.accepted = HeldOutHolds(t, both) && implausible.empty() && agrees;
-      char why[320];
-      std::snprintf(why, sizeof why, "%s (%s): refit %.4g; %s; EG %+.2f %% (%+.1f sigma)", t.accepted ? "added" : "rejected",
-                    evidence, fitted, HeldOutChangeText(t, both).c_str(), 100 * t.eg_shift_rel, t.eg_shift_sigma);
-      t.why = why;
-      if (!agrees) t.why += "; the refit contradicts the stops";
-      if (!implausible.empty()) t.why += "; " + implausible;
-    }
-    spdlog::info("ladder: + {}: {}", effect, t.why);
-    ladder_.trials.push_back(t);
-    if (t.accepted) AddRung(r, effect, DeltaBic(fit_, r.fit, BothOutputsScored(fit_, r.fit)).delta);
-  }
 }
 
 // After the climb: an effect the ladder added whose parameters a later one has left undetermined

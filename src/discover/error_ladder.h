@@ -10,6 +10,8 @@
 //                      judged by trial_rules.h), add the first that passes, else the EG-relevant one
 //   TryStandstillEvidence after the climb: an effect the stops determine and the model lacks
 //                      (an a_y bias a steering offset has absorbed), refitted with that evidence
+//   TrySteadyStateEvidence the steady-state regression's intercept the model leaves: a steering
+//                      offset or an a_y bias, refitted; one that agrees added (both: the better, the other named)
 //   PruneUndetermined  an added effect a later one left undetermined is taken out again
 //   Judge              after the last rung: EG settled?, each output against its noise floor (verdicts.h)
 // Every stopping rule is its own predicate: StartingFitFailed, StepLimitReached, and ClimbOneRung's
@@ -60,7 +62,8 @@ class ErrorLadder {
   void AddLookAlikeThenAlign();
   void TrySpeedScaleFirst();
   bool ClimbOneRung();  // true when a rung was added
-  void TryStandstillEvidence();
+  void TryStandstillEvidence();  // error_ladder_evidence.cc, with the next
+  void TrySteadyStateEvidence();
   void PruneUndetermined();
   void Judge();
 

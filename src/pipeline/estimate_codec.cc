@@ -105,7 +105,7 @@ nlohmann::json EstimateToJson(const Estimate& e) {
   const stats::SteadyStateEstimate& s = e.steady_state;
   j["steady_state"] = {{"valid", s.valid}, {"reason", s.reason}, {"eg_rad_per_mps2", s.eg_rad_per_mps2},
                        {"eg_se_rad_per_mps2", s.eg_se}, {"steer_ratio", s.steer_ratio},
-                       {"steer_offset_rad", s.steer_offset_rad}, {"n", s.n}};
+                       {"steer_offset_rad", s.steer_offset_rad}, {"steer_offset_se_rad", s.steer_offset_se}, {"n", s.n}};
   const adequacy::Report& a = e.adequacy;
   j["adequacy"] = {{"state", adequacy::StateName(a.state)}, {"gated_hours", a.gated_hours}, {"rel_change", a.rel_change},
                    {"rel_se", a.rel_se}, {"kl_growth", a.kl_growth}, {"hours_under_tolerance", a.hours_under_tolerance},
@@ -150,6 +150,7 @@ Estimate EstimateFromJson(const JsonIn& in) {
   ss.eg_se = s.Number("eg_se_rad_per_mps2");
   ss.steer_ratio = s.Number("steer_ratio");
   ss.steer_offset_rad = s.Number("steer_offset_rad");
+  if (s.Has("steer_offset_se_rad")) ss.steer_offset_se = s.Number("steer_offset_se_rad");  // absent in older files
   ss.n = s.Number("n");
   const JsonIn a = in.At("adequacy");
   adequacy::Report& r = e.adequacy;

@@ -84,6 +84,7 @@ SteadyStateEstimate SteadyStateFromSolution(const LsSolution& s, double l) {
   e.steer_ratio = a / l;
   e.eg_rad_per_mps2 = b * l / a;
   e.steer_offset_rad = s.theta[2];
+  e.steer_offset_se = std::sqrt(std::max(s.covariance[8], 0.0));
   // Delta method: EG = l*b/a, gradient (-l*b/a^2, l/a, 0).
   const double ga = -l * b / (a * a), gb = l / a;
   const double var = ga * ga * s.covariance[0] + 2 * ga * gb * s.covariance[1] + gb * gb * s.covariance[4];

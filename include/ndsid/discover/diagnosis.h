@@ -14,6 +14,7 @@
 #include "ndsid/identify/identifier.h"
 #include "ndsid/model/effect_library.h"
 #include "ndsid/stats/speed_scale.h"
+#include "ndsid/stats/steady_state.h"
 
 namespace ndsid::discover {
 
@@ -131,6 +132,10 @@ struct LadderOptions {
   // than 1 %.
   stats::SpeedScaleEvidence speed_scale_evidence;
   double speed_scale_add_sigma = 3.0;
+  // The window's steady-state regression (stats/steady_state.h; the replay's, as `ndsid diagnose`
+  // has it): its intercept, where the model leaves more than determined_z of its standard error of
+  // it, is a steering offset or an accelerometer bias, refitted after the climb (not valid: none).
+  stats::SteadyStateEstimate steady_state;
   // After the ladder: a candidate refitted at the last rung and not added that moves EG by more
   // than eg_relevant_shift_rel and this many of its standard errors leaves EG unsettled
   // (Ladder::eg_unsettled): the data do not decide between two models whose EGs differ. A refit

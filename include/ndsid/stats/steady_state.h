@@ -28,6 +28,7 @@ struct SteadyStateEstimate {
   double eg_rad_per_mps2 = 0;    // EG
   double eg_se = 0;              // standard error of EG (delta method)
   double steer_offset_rad = 0;   // d0 at the steering wheel
+  double steer_offset_se = 0;    // its standard error (stretches as degrees of freedom)
   double n = 0;
 };
 

@@ -371,6 +371,7 @@ discover::LadderOptions MakeLadderOptions(const DiagnoseArgs& a, const Candidate
   opt.align = !a.no_align;
   opt.standstill = data.window.standstill;
   opt.speed_scale_evidence = stats::EstimateSpeedScale(data.window.training);
+  opt.steady_state = data.window.steady_state;
   opt.start_fit = ReplayedFit(data, start);  // the replay's own fit of the starting model
   return opt;
 }
