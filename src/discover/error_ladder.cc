@@ -84,6 +84,7 @@ Ladder ErrorLadder::Climb() {
   TryStandstillEvidence();
   TrySteadyStateEvidence();
   PruneUndetermined();
+  DiagnoseFinalModel();
   ladder_.final_effects = effects_;
   Judge();
   return std::move(ladder_);
@@ -167,6 +168,14 @@ void ErrorLadder::PruneUndetermined() {
     ladder_.trials.push_back(t);
     if (t.accepted) AddRung(r, "", DeltaBic(fit_, r.fit, BothOutputsScored(fit_, r.fit)).delta, effect);
   }
+}
+
+// The ranking of the model the ladder ends with, where the evidence steps or the pruning changed
+// it after the climb's last diagnosis: what is said after the ladder (the residual's shape,
+// desk/outside_library.h) reads the final model's residual, not the one before its last rung.
+void ErrorLadder::DiagnoseFinalModel() {
+  if (!ladder_.diagnoses.empty() && ladder_.diagnoses.back().model == current_.spec().Describe()) return;
+  ladder_.diagnoses.push_back(Diagnose(current_, fit_.AllValues(), training_, options_.diagnosis));
 }
 
 bool ErrorLadder::ClimbOneRung() {

@@ -13,6 +13,7 @@
 //   TrySteadyStateEvidence the steady-state regression's intercept the model leaves: a steering
 //                      offset or an a_y bias, refitted; one that agrees added (both: the better, the other named)
 //   PruneUndetermined  an added effect a later one left undetermined is taken out again
+//   DiagnoseFinalModel the final model's ranking, where the steps above changed it after the climb
 //   Judge              after the last rung: EG settled?, each output against its noise floor (verdicts.h)
 // Every stopping rule is its own predicate: StartingFitFailed, StepLimitReached, and ClimbOneRung's
 // false (nothing added: StopReason says why).
@@ -65,6 +66,7 @@ class ErrorLadder {
   void TryStandstillEvidence();  // error_ladder_evidence.cc, with the next
   void TrySteadyStateEvidence();
   void PruneUndetermined();
+  void DiagnoseFinalModel();
   void Judge();
 
   // Within a rung.

@@ -83,6 +83,15 @@ TEST(SteadyStateEvidence, AnOffsetTheRankingMissedIsAddedFromTheIntercept) {
       ++added_by_evidence;
       EXPECT_LT(t.held_out_after, t.held_out_before) << "seed " << k.seed << ": " << t.why;
     }
+    // What is said after the ladder reads the final model's residual: its ranking is the last,
+    // and the dead band the library lacks leads the signatures there (desk/outside_library.h).
+    ASSERT_FALSE(c.ladder.diagnoses.empty());
+    const discover::Diagnosis& last = c.ladder.diagnoses.back();
+    EXPECT_EQ(last.model, c.ladder.rungs.back().model) << "seed " << k.seed;
+    ASSERT_FALSE(last.signatures.empty());
+    std::printf("  last diagnosis's leading signature: %s (z %+.1f)\n", last.signatures.front().key.c_str(),
+                last.signatures.front().z_robust);
+    EXPECT_EQ(last.signatures.front().key, "steer_odd") << "seed " << k.seed;
     for (const auto& p : c.ladder.rungs.back().fit.effect_params) {
       if (p.name == "steer_offset_rad")
         EXPECT_NEAR(p.value, c.steer_offset_truth_rad, 0.35 * std::abs(c.steer_offset_truth_rad)) << "seed " << k.seed;
