@@ -173,9 +173,16 @@ void ErrorLadder::PruneUndetermined() {
 // The ranking of the model the ladder ends with, where the evidence steps or the pruning changed
 // it after the climb's last diagnosis: what is said after the ladder (the residual's shape,
 // desk/outside_library.h) reads the final model's residual, not the one before its last rung.
-void ErrorLadder::DiagnoseFinalModel() {
-  if (!ladder_.diagnoses.empty() && ladder_.diagnoses.back().model == current_.spec().Describe()) return;
-  ladder_.diagnoses.push_back(Diagnose(current_, fit_.AllValues(), training_, options_.diagnosis));
+void ErrorLadder::DiagnoseFinalModel() { DiagnosisOfCurrentModel(); }
+
+const Diagnosis& ErrorLadder::DiagnosisOfCurrentModel() {
+  if (ladder_.diagnoses.empty() || ladder_.diagnoses.back().model != current_.spec().Describe())
+    ladder_.diagnoses.push_back(Diagnose(current_, fit_.AllValues(), training_, options_.diagnosis));
+  return ladder_.diagnoses.back();
+}
+
+bool ErrorLadder::ModelHasParameterOf(const std::string& effect) const {
+  return std::any_of(effects_.begin(), effects_.end(), [&](const std::string& e) { return SharesParameter(library_, e, effect); });
 }
 
 bool ErrorLadder::ClimbOneRung() {

@@ -73,6 +73,11 @@ class ErrorLadder {
   std::vector<CandidateScore> TrialOrder(const Diagnosis& diagnosis) const;
   bool IsTried(const CandidateScore& c, const Diagnosis& diagnosis, int tried, int most = 3) const;
   std::vector<std::string> EffectsWith(const std::string& effect) const;
+  // The current model's ranking: the ladder's last diagnosis where it is of this model, else made
+  // now and appended (so the evidence steps and DiagnoseFinalModel do not rank one model twice).
+  const Diagnosis& DiagnosisOfCurrentModel();
+  // An effect of the model shares a parameter with `effect` (it has it, or an alternative form).
+  bool ModelHasParameterOf(const std::string& effect) const;
   // The stops' evidence on the training drives, and every prior a refit with `effect` is judged against.
   std::vector<identify::Identifier::StandstillPrior> TrainingStandstillPriors() const;
   std::vector<config::ParameterPrior> JudgingPriors(const std::string& effect) const;

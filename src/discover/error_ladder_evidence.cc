@@ -8,7 +8,6 @@
 #include <optional>
 
 #include "error_ladder.h"
-#include "scoring_model.h"
 #include "trial_rules.h"
 
 namespace ndsid::discover {
@@ -49,15 +48,15 @@ double ParamValue(const IdentificationResult& fit, const std::string& name) {
 // more than 3 standard errors from the stops' value (then the stops read something else: a car
 // parked on a slope).
 void ErrorLadder::TryStandstillEvidence() {
-  std::optional<Diagnosis> diagnosis;  // the final model's, made once some stops qualify
+  std::optional<Diagnosis> diagnosis;  // the climb's final model's, taken once some stops qualify
   for (const Identifier::StandstillPrior& sp : TrainingStandstillPriors()) {
     const std::string& effect = sp.effect;
-    const bool in_model = std::any_of(effects_.begin(), effects_.end(),
-                                      [&](const std::string& e) { return SharesParameter(library_, e, effect); });
-    if (in_model || !library_.Find(effect) || !IsCandidate(effect) || !(std::abs(sp.value) > options_.determined_z * sp.sd)) continue;
+    if (ModelHasParameterOf(effect) || !library_.Find(effect) || !IsCandidate(effect) ||
+        !(std::abs(sp.value) > options_.determined_z * sp.sd))
+      continue;
     // Only where the driving data cannot tell it from the model's own parameters (ScoreCandidate's
     // uniqueness below kConfoundedUniqueness): elsewhere the ranking has judged it already.
-    if (!diagnosis) diagnosis = Diagnose(current_, fit_.AllValues(), training_, options_.diagnosis);
+    if (!diagnosis) diagnosis = DiagnosisOfCurrentModel();
     const auto scored = std::find_if(diagnosis->ranked.begin(), diagnosis->ranked.end(),
                                      [&](const CandidateScore& c) { return c.effect == effect; });
     if (scored == diagnosis->ranked.end() || !(scored->uniqueness < kConfoundedUniqueness)) continue;
@@ -93,7 +92,6 @@ void ErrorLadder::TryStandstillEvidence() {
   }
 }
 
-
 // The steady-state evidence (docs/two-outputs.md, "Steady-state evidence"): the steady-state
 // regression (stats/steady_state.h) reads the intercept d0 of d_sw = is l r/v + is EG a_y + d0
 // from the quasi-steady stretches' means, untouched by what a failing dynamic model gets wrong
@@ -119,8 +117,8 @@ void ErrorLadder::TrySteadyStateEvidence() {
   };
   const double offset_model = ParamValue(fit_, "steer_offset_rad"), bias_model = ParamValue(fit_, "accel_bias_mps2");
   const double left = ss.steer_offset_rad - implied(fit_);  // what the model leaves of d0
-  const double tolerance = std::max(3 * se, kSteadyStateRelativeTolerance * std::abs(left));
   if (!(std::abs(left) > options_.determined_z * se)) return;
+  const double tolerance = std::max(3 * se, kSteadyStateRelativeTolerance * std::abs(left));
   struct Reading {
     const char* effect;
     const char* param;
@@ -132,9 +130,7 @@ void ErrorLadder::TrySteadyStateEvidence() {
   std::vector<std::pair<size_t, Refit>> passed;  // index into ladder_.trials, the refit
   for (const Reading& rd : readings) {
     const std::string effect = rd.effect;
-    const bool in_model = std::any_of(effects_.begin(), effects_.end(),
-                                      [&](const std::string& e) { return SharesParameter(library_, e, effect); });
-    if (in_model || !library_.Find(effect) || !IsCandidate(effect)) continue;
+    if (ModelHasParameterOf(effect) || !library_.Find(effect) || !IsCandidate(effect)) continue;
     Refit r = RefitWith(EffectsWith(effect));
     Trial t = JudgeRefit(effect, r).trial;  // the climb's rules: held-out, BIC, priors and stops, determined
     char evidence[200];
